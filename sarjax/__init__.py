@@ -1,0 +1,33 @@
+"""sarjax: differentiable stripmap SAR raw-data simulation and inversion in JAX.
+
+Importing sarjax enables ``jax_enable_x64``: slant ranges and phases are formed in
+float64 (a float32 slant range at 5 km is already 0.2 rad of phase). The per-sample
+kernels can still run in complex64 (``dtype=`` of :func:`simulate`).
+"""
+
+import jax as _jax
+
+_jax.config.update("jax_enable_x64", True)
+
+from . import constants as constants  # noqa: E402
+from . import geometry as geometry  # noqa: E402
+from . import presets as presets  # noqa: E402
+from ._data import Acquisition as Acquisition  # noqa: E402
+from ._data import Image as Image  # noqa: E402
+from ._data import RawData as RawData  # noqa: E402
+from ._simulate import simulate as simulate  # noqa: E402
+from .antenna import AbstractPattern as AbstractPattern  # noqa: E402
+from .antenna import GaussianPattern as GaussianPattern  # noqa: E402
+from .antenna import Sinc2Pattern as Sinc2Pattern  # noqa: E402
+from .motion import Motion as Motion  # noqa: E402
+from .motion import seed_pointing_jitter as seed_pointing_jitter  # noqa: E402
+from .motion import sinusoidal_pointing as sinusoidal_pointing  # noqa: E402
+from .motion import smooth_deviation as smooth_deviation  # noqa: E402
+from .radar import Radar as Radar  # noqa: E402
+from .scene import PointTargets as PointTargets  # noqa: E402
+from .scene import ReflectivityGrid as ReflectivityGrid  # noqa: E402
+from .scene import pyramid_height as pyramid_height  # noqa: E402
+from .simulators import AbstractSimulator as AbstractSimulator  # noqa: E402
+from .simulators import TimeDomain as TimeDomain  # noqa: E402
+from . import processing as processing  # noqa: E402
+from .processing import focus as focus  # noqa: E402

@@ -1,0 +1,42 @@
+"""Two-way azimuth antenna patterns W²(u) (physics.md §1, §6).
+
+A pattern is a callable module mapping the normalised azimuth offset
+``u = (x' − x − δx) / X`` (dimensionless; ``X = λ r / L`` is the footprint) to the
+two-way power gain. Derivatives needed by the pointing-error expansion (seed 000
+eq. 21) are taken from the pattern itself with autodiff, so any pattern works.
+"""
+
+from __future__ import annotations
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+
+
+class AbstractPattern(eqx.Module):
+    """Two-way azimuth illumination ``W²(u)``; ``u`` dimensionless, result dimensionless."""
+
+    @abc.abstractmethod
+    def __call__(self, u):
+        """Evaluate ``W²(u)`` elementwise."""
+
+
+class Sinc2Pattern(AbstractPattern):
+    """Uniform aperture: ``W²(u) = sinc²(u)``, ``sinc(u) = sin(πu)/(πu)`` (physics.md §1).
+
+    With ``X = λr/L`` the first nulls are at ``x' − x = ±X`` and the azimuth spectrum
+    occupies ``|ξ| ≤ Ω_x = 4π/L`` (seed 000 eq. 9).
+    """
+
+    def __call__(self, u):
+        return jnp.sinc(u) ** 2
+
+
+class GaussianPattern(AbstractPattern):
+    """Gaussian two-way beam ``W²(u) = exp(−u²/(2 width²))`` (a smooth alternative)."""
+
+    width: object = eqx.field(converter=jnp.asarray, default=0.37)
+
+    def __call__(self, u):
+        return jnp.exp(-0.5 * (u / self.width) ** 2)

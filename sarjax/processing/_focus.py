@@ -1,0 +1,99 @@
+"""The focusing entry point."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._data import Image, RawData
+from ..motion import Motion
+from . import _motion_compensation as moco
+from ._backprojection import backprojection
+from ._omega_k import omega_k
+from ._range_compression import range_compress, range_fft_length
+
+_COMPENSATION = (None, "none", "first_order", "second_order")
+
+
+@eqx.filter_jit
+def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft):
+    num_pulses = data.shape[0]
+    compressed = range_compress(radar, data, n_fft=n_fft)
+    if order in ("first_order", "second_order"):
+        dy, dz, _ = motion.resolve(num_pulses)
+        compressed = moco.first_order(radar, compressed, dy, dz, range_)
+        if order == "second_order":
+            compressed = moco.second_order(radar, compressed, dy, dz, range_)
+    return omega_k(radar, compressed, azimuth, range_)
+
+
+@eqx.filter_jit
+def _focus_backprojection(radar, data, azimuth, range_, motion, image_azimuth, image_range,
+                          upsample, n_fft):
+    dy, dz, _ = motion.resolve(data.shape[0])
+    compressed = range_compress(radar, data, n_fft=n_fft)
+    return backprojection(
+        radar, compressed, azimuth, range_, dy, dz, image_azimuth, image_range,
+        upsample=upsample,
+    )
+
+
+def range_compressed(radar, raw: RawData) -> RawData:
+    """Matched-filter range compression of raw data (same grid; physics.md §11)."""
+    n_fft = range_fft_length(radar, raw.data.shape[-1])
+    return RawData(
+        data=range_compress(radar, raw.data, n_fft=n_fft), azimuth=raw.azimuth, range=raw.range
+    )
+
+
+def focus(
+    radar,
+    raw: RawData,
+    *,
+    method: str = "omega_k",
+    motion: Motion | None = None,
+    motion_compensation: str | None = "second_order",
+    azimuth=None,
+    range=None,
+    upsample: int = 8,
+) -> Image:
+    """Focus raw data into a complex image (physics.md §11).
+
+    Args:
+        radar: the :class:`~sarjax.Radar` that acquired ``raw``.
+        raw: :class:`~sarjax.RawData`.
+        method: ``"omega_k"`` (wavenumber domain, straight track, with motion compensation
+            when ``motion`` is given) or ``"backprojection"`` (any known trajectory).
+        motion: the platform motion to compensate (ω-k) or the actual track
+            (back-projection). None = nominal straight track.
+        motion_compensation: for ω-k with ``motion``: ``"first_order"`` (δr(x')),
+            ``"second_order"`` (δr(x') and ψ(x', r)) or None.
+        azimuth: back-projection output azimuths x [m] (default: the pulse positions).
+        range: back-projection output slant ranges r [m] (default: the range samples).
+        upsample: back-projection range upsampling before linear interpolation.
+
+    Returns:
+        :class:`~sarjax.Image` on (x, r); a target at (x, r) focuses there with phase
+        ``exp(−j4πr/λ)``.
+    """
+    motion = Motion() if motion is None else motion
+    if motion_compensation not in _COMPENSATION:
+        raise ValueError(
+            f"motion_compensation={motion_compensation!r}; choose one of {_COMPENSATION}"
+        )
+    data = jnp.asarray(raw.data)
+    if data.ndim != 2:
+        raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
+    n_fft = range_fft_length(radar, data.shape[-1])
+    if method == "omega_k":
+        order = None if motion.is_ideal else (motion_compensation or "none")
+        image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft)
+        return Image(data=image, azimuth=raw.azimuth, range=raw.range)
+    if method == "backprojection":
+        image_azimuth = raw.azimuth if azimuth is None else jnp.atleast_1d(jnp.asarray(azimuth, float))
+        image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
+        image = _focus_backprojection(
+            radar, data, raw.azimuth, raw.range, motion, image_azimuth, image_range, upsample, n_fft
+        )
+        return Image(data=image, azimuth=image_azimuth, range=image_range)
+    raise ValueError(f"unknown focus method={method!r}; choose 'omega_k' or 'backprojection'")

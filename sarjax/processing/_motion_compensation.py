@@ -1,0 +1,39 @@
+"""Motion compensation for the Fourier focusers (physics.md §11, seed 000 eq. 5).
+
+First order removes the range- and azimuth-invariant deviation δr(x') projected on the
+scene centre (envelope shift and phase, in the range-frequency domain); second order
+removes the range-variant phase ψ(x', r) = δr_xr(x', x', r) − δr(x') per range sample.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from .. import geometry
+from ._interpolation import next_fast_len
+
+
+def first_order(radar, compressed, horizontal, vertical, range_axis):
+    """Remove δr(x'): multiply the range spectrum by exp[+j η̄ δr(x')], η̄ = η + 4π/λ.
+
+    Args:
+        radar: the :class:`~sarjax.Radar`.
+        compressed: (azimuth, range) range-compressed data.
+        horizontal, vertical: (azimuth,) Δy, Δz [m].
+        range_axis: (range,) r' [m].
+    """
+    n_range = compressed.shape[-1]
+    n_fft = next_fast_len(n_range + 64)
+    delta_r = geometry.reference_deviation(horizontal, vertical, radar)  # (azimuth,)
+    eta = 2 * jnp.pi * jnp.fft.fftfreq(n_fft, radar.range_spacing)
+    spectrum = jnp.fft.fft(compressed, n=n_fft, axis=-1)
+    shift = jnp.exp(1j * (eta[None, :] + radar.wavenumber) * delta_r[:, None])
+    return jnp.fft.ifft(spectrum * shift, axis=-1)[..., :n_range]
+
+
+def second_order(radar, compressed, horizontal, vertical, range_axis):
+    """Remove ψ(x', r'): multiply by exp[+j (4π/λ) ψ(x', r')] at each range sample r'."""
+    psi = geometry.range_variant_deviation(
+        horizontal[:, None], vertical[:, None], range_axis[None, :], 0.0, radar
+    )
+    return compressed * jnp.exp(1j * radar.wavenumber * psi)

@@ -1,0 +1,6 @@
+import jax
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_rank_promotion", "raise")
+
+import sarjax  # noqa: E402,F401  (enables x64 as the library does)
