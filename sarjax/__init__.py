@@ -29,5 +29,7 @@ from .scene import ReflectivityGrid as ReflectivityGrid  # noqa: E402
 from .scene import pyramid_height as pyramid_height  # noqa: E402
 from .simulators import AbstractSimulator as AbstractSimulator  # noqa: E402
 from .simulators import TimeDomain as TimeDomain  # noqa: E402
+from . import metrics as metrics  # noqa: E402
 from . import processing as processing  # noqa: E402
+from .metrics import point_target_metrics as point_target_metrics  # noqa: E402
 from .processing import focus as focus  # noqa: E402

@@ -54,6 +54,12 @@ class Radar(eqx.Module):
     num_pulses: int = eqx.field(static=True, default=1024)
     num_range: int = eqx.field(static=True, default=1024)
 
+    def __check_init__(self):
+        for name in ("num_pulses", "num_range"):
+            n = getattr(self, name)
+            if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+                raise ValueError(f"Radar.{name}={n!r} must be a positive integer")
+
     # ---- derived quantities (physics.md §1) -------------------------------------------
     @property
     def wavelength(self):

@@ -44,7 +44,7 @@ def sinc_interpolate(values, positions, *, taps: int = 12):
     half = taps // 2
     base = jnp.floor(positions)
     frac = positions - base
-    offsets = jnp.arange(-half + 1, half + 1)
+    offsets = jnp.arange(-half + 1, half + 1).reshape((1,) * positions.ndim + (taps,))
     distance = frac[..., None] - offsets  # (..., m, taps)
     sign = jnp.where(offsets % 2 == 0, 1.0, -1.0)
     sin_term = jnp.sin(jnp.pi * frac)[..., None] * sign

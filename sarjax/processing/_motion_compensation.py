@@ -33,7 +33,11 @@ def first_order(radar, compressed, horizontal, vertical, range_axis):
 
 def second_order(radar, compressed, horizontal, vertical, range_axis):
     """Remove ψ(x', r'): multiply by exp[+j (4π/λ) ψ(x', r')] at each range sample r'."""
+    # range samples nearer than the platform height have no ground position: ψ = 0 there
+    has_ground = range_axis > radar.height
+    safe_range = jnp.where(has_ground, range_axis, radar.reference_range)
     psi = geometry.range_variant_deviation(
-        horizontal[:, None], vertical[:, None], range_axis[None, :], 0.0, radar
+        horizontal[:, None], vertical[:, None], safe_range[None, :], 0.0, radar
     )
+    psi = jnp.where(has_ground[None, :], psi, 0.0)
     return compressed * jnp.exp(1j * radar.wavenumber * psi)

@@ -15,7 +15,10 @@ import jax.numpy as jnp
 from ._interpolation import next_fast_len, sinc_interpolate
 
 
-def omega_k(radar, compressed, azimuth_axis, range_axis, *, row_chunk: int = 64):
+def omega_k(
+    radar, compressed, azimuth_axis, range_axis, *, row_chunk: int = 64,
+    equalize_pattern: bool = False, pattern_floor: float = 0.05,
+):
     """Focus range-compressed data with the ω-k algorithm.
 
     Args:
@@ -24,6 +27,12 @@ def omega_k(radar, compressed, azimuth_axis, range_axis, *, row_chunk: int = 64)
         azimuth_axis: (azimuth,) x' [m], uniform.
         range_axis: (range,) r' [m], uniform.
         row_chunk: azimuth-wavenumber rows interpolated together (memory bound).
+        equalize_pattern: divide the azimuth spectrum by the two-way pattern at its
+            stationary point, ``W²(u*)``, ``u* = −ξL / (λ√(k₀² − ξ²))`` (floored at
+            ``pattern_floor``): the whole PRF band is then processed with near-uniform
+            weight (azimuth IRW ≈ 0.886 v/PRF, as in seed 000 Table 3). Default: the
+            natural antenna weighting.
+        pattern_floor: lower bound of ``W²`` in the equalisation.
 
     Returns:
         (azimuth, range) complex image on the same (x, r) grid.
@@ -52,6 +61,10 @@ def omega_k(radar, compressed, azimuth_axis, range_axis, *, row_chunk: int = 64)
     xi2 = xi[:, None] ** 2
     kz = jnp.sqrt(jnp.maximum(eta_bar**2 - xi2, 0.0))
     spec = spec * jnp.exp(1j * (-xi2 / (kz + eta_bar) * r_ref + jnp.mod(k0 * r_ref, 2 * jnp.pi)))
+    if equalize_pattern:
+        u_star = -xi * radar.antenna_length / (radar.wavelength * jnp.sqrt(k0**2 - xi**2))
+        gain = jnp.maximum(radar.pattern(u_star), pattern_floor)
+        spec = spec / gain[:, None]
     # materialise before the gathers (else XLA recomputes the RFM once per tap)
     spec = jax.lax.optimization_barrier(spec)
 

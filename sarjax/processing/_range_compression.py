@@ -52,7 +52,9 @@ def range_compress(radar, data, *, n_fft: int | None = None, keep_spectrum: bool
     """
     n_range = data.shape[-1]
     n_fft = n_fft or range_fft_length(radar, n_range)
-    spectrum = jnp.fft.fft(data, n=n_fft, axis=-1) * matched_filter(radar, n_fft)
+    spectrum = jnp.fft.fft(data, n=n_fft, axis=-1) * jnp.expand_dims(
+        matched_filter(radar, n_fft), tuple(range(data.ndim - 1))
+    )
     if keep_spectrum:
         return spectrum
     return jnp.fft.ifft(spectrum, axis=-1)[..., :n_range]
