@@ -9,10 +9,21 @@ from . import _validate
 from ._data import Acquisition, RawData
 from .motion import Motion
 from .scene import PointTargets, ReflectivityGrid
-from .simulators import AbstractSimulator, TimeDomain
+from .simulators import (
+    AbstractSimulator,
+    Fourier2D,
+    ModerateDeviation,
+    SmallDeviation,
+    TimeDomain,
+)
 
 _METHODS = {
     "time_domain": TimeDomain,
+    "fourier_2d": Fourier2D,
+    "small_deviation": SmallDeviation,
+    "algorithm_a": SmallDeviation,
+    "moderate_deviation": ModerateDeviation,
+    "algorithm_b": ModerateDeviation,
 }
 
 
@@ -27,7 +38,13 @@ def _resolve_method(method, options):
         raise ValueError(
             f"unknown method={method!r}; choose one of {sorted(_METHODS)} or pass a simulator"
         ) from None
-    return cls(**options)
+    try:
+        return cls(**options)
+    except TypeError:
+        known = sorted(f for f in cls.__dataclass_fields__ if not f.startswith("_"))
+        raise ValueError(
+            f"unknown option(s) {sorted(options)} for method={method!r}; known: {known}"
+        ) from None
 
 
 @eqx.filter_jit
@@ -79,9 +96,7 @@ def simulate(
     if dtype not in (jnp.complex64, jnp.complex128):
         raise ValueError(f"dtype={dtype} must be complex64 or complex128")
     motion = Motion() if motion is None else motion
-    if isinstance(scene, ReflectivityGrid):
-        scene = scene.to_points()
-    if not isinstance(scene, PointTargets):
+    if not isinstance(scene, (PointTargets, ReflectivityGrid)):
         raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
     num_pulses = radar.num_pulses if num_pulses is None else num_pulses
     num_range = radar.num_range if num_range is None else num_range
@@ -96,5 +111,7 @@ def simulate(
         azimuth_center=azimuth_center,
     )
     _validate.require_positive(acquisition, ["near_range"], "acquisition")
+    _validate.check_finite_scalar(azimuth_center, "azimuth_center")
     simulator = _resolve_method(method, options)
+    _validate.check_supported(simulator, radar, scene)
     return _run(simulator, radar, scene, motion, acquisition, dtype)

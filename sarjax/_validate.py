@@ -27,7 +27,17 @@ def require_positive(obj, names, where):
             raise ValueError(f"{where}.{name}={v} must be > 0")
 
 
+_RADAR_SCALARS = (
+    "carrier_frequency", "bandwidth", "chirp_duration", "sampling_rate", "prf", "velocity",
+    "height", "antenna_length", "reference_range", "near_range", "squint",
+)
+
+
 def check_radar(radar):
+    for name in _RADAR_SCALARS:
+        shape = np.shape(getattr(radar, name))
+        if shape != ():
+            raise ValueError(f"radar.{name} must be a scalar, got shape {shape}")
     require_positive(
         radar,
         ["carrier_frequency", "bandwidth", "chirp_duration", "sampling_rate", "prf",
@@ -50,11 +60,16 @@ def check_scene(scene, radar):
         raise ValueError("the scene is empty (0 scatterers): nothing to simulate")
     for name in ("azimuth", "range", "reflectivity", "height", "velocity_range",
                  "velocity_azimuth"):
+        if not hasattr(scene, name):
+            continue
         v = _concrete(getattr(scene, name))
         if v is not None and not np.all(np.isfinite(v)):
             bad = np.flatnonzero(~np.isfinite(v))[:5]
             raise ValueError(f"scene.{name} has non-finite values {v[bad]} at indices {bad}")
     r, h, H = _concrete(scene.range), _concrete(scene.height), _concrete(radar.height)
+    if r is not None and h is not None and r.ndim == 1 and h.ndim == 2:  # grid
+        r = np.broadcast_to(r[None, :], h.shape).ravel()
+        h = h.ravel()
     if r is not None and h is not None and H is not None:
         bad = np.flatnonzero(r <= H - h)
         if bad.size:
@@ -81,5 +96,32 @@ def check_motion(motion, num_pulses):
 
 def check_grid(num_pulses, num_range):
     for name, n in (("num_pulses", num_pulses), ("num_range", num_range)):
-        if not isinstance(n, (int, np.integer)) or n < 1:
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise ValueError(f"{name}={n!r} must be a positive integer")
+
+
+def check_finite_scalar(value, name):
+    v = _concrete(value)
+    if v is None:
+        return
+    if np.shape(v) != ():
+        raise ValueError(f"{name} must be a scalar, got shape {np.shape(v)}")
+    if not np.isfinite(v):
+        raise ValueError(f"{name}={v} is not finite")
+
+
+def check_supported(simulator, radar, scene):
+    """Refuse model features a simulator does not implement (never ignore them silently)."""
+    squint = _concrete(radar.squint)
+    if squint is not None and squint != 0:
+        raise ValueError(
+            f"radar.squint={float(squint):g} rad: squinted acquisition is not implemented by "
+            f"{type(simulator).__name__}"
+        )
+    for name in ("velocity_range", "velocity_azimuth"):
+        v = _concrete(getattr(scene, name, None)) if hasattr(scene, name) else None
+        if v is not None and np.any(v != 0):
+            raise ValueError(
+                f"scene.{name} is non-zero: moving scatterers are not implemented by "
+                f"{type(simulator).__name__}"
+            )

@@ -36,7 +36,7 @@ class Sinc2Pattern(AbstractPattern):
 class GaussianPattern(AbstractPattern):
     """Gaussian two-way beam ``W²(u) = exp(−u²/(2 width²))`` (a smooth alternative)."""
 
-    width: object = eqx.field(converter=jnp.asarray, default=0.37)
+    width: object = eqx.field(converter=lambda v: jnp.asarray(v, dtype=float), default=0.37)
 
     def __call__(self, u):
         return jnp.exp(-0.5 * (u / self.width) ** 2)

@@ -12,7 +12,11 @@ import numpy as np
 
 
 def _optional(v):
-    return None if v is None else jnp.asarray(v, dtype=float)
+    if v is None:
+        return None
+    if jnp.iscomplexobj(v):
+        raise ValueError(f"motion arrays must be real, got dtype {jnp.asarray(v).dtype}")
+    return jnp.asarray(v, dtype=float)
 
 
 class Motion(eqx.Module):
