@@ -28,6 +28,9 @@ from .scene import PointTargets as PointTargets  # noqa: E402
 from .scene import ReflectivityGrid as ReflectivityGrid  # noqa: E402
 from .scene import pyramid_height as pyramid_height  # noqa: E402
 from .simulators import AbstractSimulator as AbstractSimulator  # noqa: E402
+from .simulators import Fourier2D as Fourier2D  # noqa: E402
+from .simulators import ModerateDeviation as ModerateDeviation  # noqa: E402
+from .simulators import SmallDeviation as SmallDeviation  # noqa: E402
 from .simulators import TimeDomain as TimeDomain  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import processing as processing  # noqa: E402

@@ -2,3 +2,6 @@
 
 from ._base import AbstractSimulator as AbstractSimulator
 from ._time_domain import TimeDomain as TimeDomain
+from ._fourier import Fourier2D as Fourier2D
+from ._fourier import ModerateDeviation as ModerateDeviation
+from ._fourier import SmallDeviation as SmallDeviation

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from .. import geometry
+from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
 
 _TWO_PI = 2 * jnp.pi
@@ -112,6 +113,8 @@ class TimeDomain(AbstractSimulator):
         return int(pulse), int(scat)
 
     def __call__(self, radar, scene, motion, acquisition, dtype):
+        if isinstance(scene, ReflectivityGrid):
+            scene = scene.to_points()
         real = jnp.finfo(dtype).dtype
         x_pulse = acquisition.pulse_azimuths(radar)
         horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
