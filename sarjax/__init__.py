@@ -36,3 +36,6 @@ from . import metrics as metrics  # noqa: E402
 from . import processing as processing  # noqa: E402
 from .metrics import point_target_metrics as point_target_metrics  # noqa: E402
 from .processing import focus as focus  # noqa: E402
+from .validity import Budget as Budget  # noqa: E402
+from .validity import Validity as Validity  # noqa: E402
+from .validity import validity as validity  # noqa: E402

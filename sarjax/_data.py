@@ -38,6 +38,7 @@ class _Gridded(eqx.Module):
     data: jnp.ndarray
     azimuth: jnp.ndarray
     range: jnp.ndarray
+    method: str = eqx.field(static=True, default="")
 
     @property
     def shape(self):
@@ -52,6 +53,7 @@ class RawData(_Gridded):
         data: (azimuth, range) complex echoes h(x', r').
         azimuth: (azimuth,) pulse positions x' [m].
         range: (range,) range-sample coordinates r' = c t/2 [m].
+        method: the simulator that produced it (what ``method="auto"`` chose).
     """
 
 

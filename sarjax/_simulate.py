@@ -9,6 +9,7 @@ from . import _validate
 from ._data import Acquisition, RawData
 from .motion import Motion
 from .scene import PointTargets, ReflectivityGrid
+from .validity import choose_method
 from .simulators import (
     AbstractSimulator,
     Fourier2D,
@@ -48,12 +49,13 @@ def _resolve_method(method, options):
 
 
 @eqx.filter_jit
-def _run(simulator, radar, scene, motion, acquisition, dtype):
+def _run(simulator, radar, scene, motion, acquisition, dtype, name):
     data = simulator(radar, scene, motion, acquisition, dtype)
     return RawData(
         data=data,
         azimuth=acquisition.pulse_azimuths(radar),
         range=acquisition.range_axis(radar),
+        method=name,
     )
 
 
@@ -76,7 +78,11 @@ def simulate(
         radar: :class:`~sarjax.Radar` (e.g. ``sj.presets.airborne_xband()``).
         scene: :class:`~sarjax.PointTargets` or :class:`~sarjax.ReflectivityGrid`.
         motion: :class:`~sarjax.Motion` (per-pulse Δy, Δz [m], δ_az [rad]); None = ideal.
-        method: ``"time_domain"`` (exact model, physics.md §3) or a simulator instance.
+        method: ``"time_domain"`` (exact model, physics.md §3), ``"fourier_2d"`` (ideal
+            straight track, §4), ``"small_deviation"`` / ``"algorithm_a"``,
+            ``"moderate_deviation"`` / ``"algorithm_b"`` (§5–6), ``"auto"`` (the fastest
+            method whose validity budgets hold, see :func:`sarjax.validity`; the choice is
+            in ``RawData.method``) or a simulator instance.
         num_pulses: pulses N_x (default ``radar.num_pulses``).
         num_range: range samples N_r (default ``radar.num_range``).
         near_range: r' of the first range sample [m] (default ``radar.near_range``).
@@ -112,6 +118,14 @@ def simulate(
     )
     _validate.require_positive(acquisition, ["near_range"], "acquisition")
     _validate.check_finite_scalar(azimuth_center, "azimuth_center")
+    if method == "auto":
+        method, _ = choose_method(
+            radar, scene, motion, num_pulses=acquisition.num_pulses,
+            azimuth_center=float(azimuth_center),
+            pointing_order=options.get("pointing_order", 2),
+        )
+    name = method if isinstance(method, str) else type(method).__name__
     simulator = _resolve_method(method, options)
     _validate.check_supported(simulator, radar, scene)
-    return _run(simulator, radar, scene, motion, acquisition, dtype)
+    simulator = simulator.prepare(radar, scene, acquisition)
+    return _run(simulator, radar, scene, motion, acquisition, dtype, name)

@@ -30,7 +30,15 @@ class Sinc2Pattern(AbstractPattern):
     """
 
     def __call__(self, u):
-        return jnp.sinc(u) ** 2
+        # Near u = 0 a Taylor polynomial, so that autodiff derivatives of any order stay
+        # accurate (the quotient sin(πu)/(πu) loses them to cancellation as u → 0).
+        small = jnp.abs(u) < 0.05
+        safe = jnp.where(small, 0.1, u)
+        quotient = (jnp.sin(jnp.pi * safe) / (jnp.pi * safe)) ** 2
+        x2 = (jnp.pi * u) ** 2
+        # sinc²(u) = 1 − x²/3 + 2x⁴/45 − x⁶/315 + 2x⁸/14175 − …,  x = πu
+        series = 1 - x2 / 3 + 2 * x2**2 / 45 - x2**3 / 315 + 2 * x2**4 / 14175
+        return jnp.where(small, series, quotient)
 
 
 class GaussianPattern(AbstractPattern):

@@ -17,3 +17,8 @@ class AbstractSimulator(eqx.Module):
     @abc.abstractmethod
     def __call__(self, radar, scene, motion, acquisition, dtype):
         """Simulate raw data; see :func:`sarjax.simulate`."""
+
+    def prepare(self, radar, scene, acquisition):
+        """Eager (outside ``jit``) checks and static sizes from concrete values; returns the
+        simulator to run (default: unchanged)."""
+        return self

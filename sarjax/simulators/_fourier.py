@@ -35,6 +35,7 @@ amplitude of the azimuth transform (kept, since its √r varies across the swath
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -219,25 +220,29 @@ class _Scene(eqx.Module):
     gridded: bool = eqx.field(static=True)
 
 
-def prepare_scene(scene, radar) -> _Scene:
-    """Point scatterers stay points; a reflectivity grid must share the pulse spacing
-    in azimuth and have a uniform range axis."""
+def check_grid_scene(scene, radar):
+    """A reflectivity grid must share the pulse spacing in azimuth and have a uniform
+    range axis (eager check on concrete values)."""
+    az = np.asarray(scene.azimuth)
+    rg = np.asarray(scene.range)
+    if az.size > 1:
+        step = np.diff(az)
+        dx = float(radar.azimuth_spacing)
+        if not np.allclose(step, dx, rtol=1e-9, atol=1e-9 * dx):
+            raise ValueError(
+                f"ReflectivityGrid azimuth spacing {step.mean():.6g} m differs from the "
+                f"pulse spacing v/PRF = {dx:.6g} m; the Fourier simulators need them "
+                "equal (resample the grid, or pass the grid as PointTargets)"
+            )
+    if rg.size > 1 and not np.allclose(np.diff(rg), np.diff(rg)[0], rtol=1e-9):
+        raise ValueError("ReflectivityGrid range axis is not uniform")
+
+
+def prepare_scene(scene) -> _Scene:
+    """Point scatterers stay points; a reflectivity grid becomes range lines."""
     if isinstance(scene, PointTargets):
         return _Scene(scene.reflectivity, scene.azimuth, scene.range, scene.height, False)
     if isinstance(scene, ReflectivityGrid):
-        az = np.asarray(scene.azimuth)
-        rg = np.asarray(scene.range)
-        if az.size > 1:
-            step = np.diff(az)
-            dx = float(radar.azimuth_spacing)
-            if not np.allclose(step, dx, rtol=1e-9, atol=1e-9 * dx):
-                raise ValueError(
-                    f"ReflectivityGrid azimuth spacing {step.mean():.6g} m differs from the "
-                    f"pulse spacing v/PRF = {dx:.6g} m; the Fourier simulators need them "
-                    "equal (resample the grid, or pass the grid as PointTargets)"
-                )
-        if rg.size > 1 and not np.allclose(np.diff(rg), np.diff(rg)[0], rtol=1e-9):
-            raise ValueError("ReflectivityGrid range axis is not uniform")
         return _Scene(scene.reflectivity, scene.azimuth, scene.range, scene.height, True)
     raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
 
@@ -281,26 +286,49 @@ class _FourierBase(AbstractSimulator):
             (its condition (11)); with ``r/R = √(k₀² − ξ²)/k₀`` at the stationary point,
             ``k₀ϕ = α(ξ) δ(x')``, ``α = √(k₀² − ξ²) − k₀``, a product of a ξ- and an
             x'-function, applied here by a Taylor series in δ about its mean.
+        envelope_correction: moderate deviation only: apply the range-envelope shift of
+            ψ(x', r) to first order (``e^{−jηψ} ≈ 1 − jηψ``, one extra range synthesis);
+            the seed neglects it (its condition (12), ``η_max |ψ| ≪ 1``).
     """
 
     pointing_order: int = eqx.field(static=True, default=2)
     azimuth_padding: float = eqx.field(static=True, default=1.0)
-    taps: int = eqx.field(static=True, default=12)
+    taps: int = eqx.field(static=True, default=8)
     range_aliases: int = eqx.field(static=True, default=1)
     coupling_order: int = eqx.field(static=True, default=3)
+    envelope_correction: bool = eqx.field(static=True, default=True)
+    azimuth_pad: int | None = eqx.field(static=True, default=None)
+    range_fft_size: int | None = eqx.field(static=True, default=None)
+    alias_columns: int | None = eqx.field(static=True, default=None)
+
+    def prepare(self, radar, scene, acquisition):
+        """Check grid scenes; fix the padding and FFT sizes from concrete values."""
+        if isinstance(scene, ReflectivityGrid):
+            check_grid_scene(scene, radar)
+        if self.azimuth_pad is not None and self.range_fft_size is not None:
+            return self
+        footprint = float(radar.footprint(np.max(np.asarray(scene.range))))
+        pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
+        chirp = int(float(radar.chirp_samples)) + 2
+        n_r = next_fast_len(acquisition.num_range + chirp)
+        # columns per range alias where |C(η ± 2π/Δr)| exceeds 1e-4 of the peak
+        eta = np.asarray(range_wavenumbers(radar, n_r))
+        peak = float(np.max(np.abs(np.asarray(chirp_spectrum(radar, eta)))))
+        shifted = np.abs(np.asarray(chirp_spectrum(radar, np.sort(eta) + 2 * np.pi / float(
+            radar.range_spacing))))
+        significant = np.flatnonzero(shifted > 1e-4 * peak)
+        columns = int(significant.max() + 1) if significant.size else 0
+        return dataclasses.replace(
+            self, azimuth_pad=pad, range_fft_size=n_r, alias_columns=columns
+        )
 
     def _run(self, radar, scene, motion, acquisition, dtype, mode):
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-        prepared = prepare_scene(scene, radar) if not isinstance(scene, _Scene) else scene
-        # static sizes (concrete radar values; traced values fall back to safe sizes)
-        try:
-            footprint = float(radar.footprint(jnp.max(prepared.ranges)))
-            pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
-            chirp = int(float(radar.chirp_samples)) + 2
-        except jax.errors.ConcretizationTypeError:
-            pad, chirp = n_pulses, n_range
+        prepared = prepare_scene(scene)
+        # static sizes fixed by prepare() (eagerly); without it, generous defaults
+        pad = n_pulses if self.azimuth_pad is None else self.azimuth_pad
+        n_r = self.range_fft_size or next_fast_len(2 * n_range)
         n_x = next_fast_len(n_pulses + 2 * pad)
-        n_r = next_fast_len(n_range + chirp)
 
         dx = radar.azimuth_spacing
         k0 = radar.wavenumber
@@ -323,15 +351,34 @@ class _FourierBase(AbstractSimulator):
 
         kappa_fn = _kappa_b if mode == "moderate" else _kappa_full
         alias_step = 2 * jnp.pi / radar.range_spacing
-        etas = [eta + m * alias_step for m in range(-self.range_aliases, self.range_aliases + 1)]
+        # alias m only matters for the columns whose η + 2πm/Δr lies near the band edge:
+        # a static count per alias (prepare()), taken next to the Nyquist column
+        half = n_r // 2
+        alias_sets = []  # (column indices or None for all, wavenumbers)
+        for m in range(-self.range_aliases, self.range_aliases + 1):
+            if m == 0:
+                alias_sets.append((None, eta + 0.0))
+                continue
+            count = n_r if self.alias_columns is None else min(self.alias_columns, n_r)
+            if count == 0:
+                continue
+            if count >= n_r:
+                alias_sets.append((None, eta + m * alias_step))
+                continue
+            # m > 0 reaches the upper band edge from the most negative η (columns half…)
+            cols = (half + np.arange(count)) if m > 0 else (half - 1 - np.arange(count))
+            cols = np.mod(cols, n_r)
+            alias_sets.append((cols, eta[cols] + m * alias_step))
 
         def row_weight(order):
             """(n_x,) the n-th pattern term at the stationary point, (−L/λ)ⁿ W²⁽ⁿ⁾(u*)/n!."""
             scale = (-radar.antenna_length / radar.wavelength) ** order
             return scale * pattern_term(radar.pattern, order)(u_star)
 
-        def line_spectra(order):
-            """(n_x, n_lines) F_j(ξ), with pattern term ``order`` (None: no pattern)."""
+        def line_spectra(order, envelope=False):
+            """(n_x, n_lines) F_j(ξ), with pattern term ``order`` (None: no pattern). With
+            ``envelope`` (moderate only) the lines weighted by ψ(x', r_j) in x', for the
+            first-order range-envelope correction."""
             if prepared.gridded:
                 gamma = prepared.reflectivity  # (n_az, n_lines)
                 xs = prepared.azimuth[:, None]
@@ -372,17 +419,29 @@ class _FourierBase(AbstractSimulator):
                     along = _coupled_inverse(lines, los, alpha, self.coupling_order)
                 else:
                     along = jnp.fft.ifft(lines, axis=0)  # (x', line): the seed's B
-                lines = jnp.fft.fft(along * jnp.exp(-1j * k0 * psi), axis=0)
+                along = along * jnp.exp(-1j * k0 * psi)
+                if envelope:
+                    # envelope shift ψ, plus the migration error of the Doppler shift
+                    # −k₀ ∂ψ/∂x' (the migration at ξ sits at r k₀/√(k₀² − ξ²): moved by
+                    # −(r ξ/k₀) ∂ψ/∂x'), both to first order
+                    slope = jnp.gradient(psi, axis=0) / dx
+                    doppler = (xi[:, None] * prepared.ranges[None, :] / k0) * jnp.fft.fft(
+                        along * slope, axis=0
+                    )
+                    lines = jnp.fft.fft(along * psi, axis=0) + doppler
+                else:
+                    lines = jnp.fft.fft(along, axis=0)
             else:
                 lines = spectrum * weight
             return lines * carrier[None, :]
 
         near = acquisition.near_range
 
-        def synthesize(lines):
-            """Σ over range aliases of (1/Δr) C(η_m) e^{jη_m r'_0} Σ_j F_j e^{−jκ(ξ, η_m) r_j}."""
-            out = 0.0
-            for eta_m in etas:
+        def synthesize(lines, envelope=False):
+            """Per range alias m: (1/Δr) C(η_m) e^{jη_m r'_0} Σ_j F_j e^{−jκ(ξ, η_m) r_j}, as a
+            list of (ξ, columns) arrays; with ``envelope`` also multiplied by −jη_m."""
+            out = []
+            for _cols, eta_m in alias_sets:
                 kappa = kappa_fn(radar, xi[:, None], eta_m[None, :])
                 if prepared.gridded and prepared.ranges.shape[0] > 1:
                     step = prepared.ranges[1] - prepared.ranges[0]
@@ -392,26 +451,38 @@ class _FourierBase(AbstractSimulator):
                 else:
                     summed = synthesize_direct(lines, prepared.ranges, kappa)
                 factor = chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near)
-                out = out + summed * (factor / radar.range_spacing)[None, :]
+                if envelope:
+                    factor = factor * (-1j * eta_m)
+                out.append(summed * (factor / radar.range_spacing)[None, :])
             return out
 
         pointing_full = jnp.pad(pointing, (pad, n_x - n_pulses - pad))
         # δx/X = (r + δr_xr) δ_az / X ≈ (L/λ)(1 + δr/r₀) δ_az; (−L/λ)ⁿ is in line_spectra
         pointing_scale = (1 + delta_r / radar.reference_range) * pointing_full
-        total = jnp.zeros((n_x, n_r), jnp.complex128)
         if mode == "moderate":  # the pattern precedes the motion phase: one synthesis each
             spectra = [synthesize(line_spectra(order)) for order in orders]
+            if self.envelope_correction:
+                # range envelope of ψ (the seed's condition (12)) to first order,
+                # e^{−jηψ} ≈ 1 − jηψ, on the main term (pointing terms are already small)
+                correction = synthesize(line_spectra(0, envelope=True), True)
+                spectra[0] = [a + b for a, b in zip(spectra[0], correction, strict=True)]
         else:  # the pattern is a per-ξ factor: synthesise once, weight per order
-            common = synthesize(line_spectra(None))
-            spectra = [common * row_weight(order)[:, None] for order in orders]
-        for order, spectrum in zip(orders, spectra, strict=True):
-            per_pulse = jnp.fft.ifft(spectrum, axis=0)  # (x', η)
-            if order:
-                per_pulse = per_pulse * pointing_scale[:, None] ** order
-            total = total + per_pulse
-        if mode != "ideal":
-            total = total * jnp.exp(-1j * (eta[None, :] + k0) * delta_r[:, None])
-        raw = jnp.fft.ifft(total, axis=1)[pad : pad + n_pulses, :n_range]
+            common = [jax.lax.optimization_barrier(a) for a in synthesize(line_spectra(None))]
+            spectra = [[a * row_weight(order)[:, None] for a in common] for order in orders]
+
+        # per pulse: Σ_n δ_azⁿ h̃_n, then the deviation δr(x') shifts envelope and phase,
+        # exp[−j(η_m + k₀) δr(x')], separately for each range alias (a fractional shift of
+        # the sampled echo moves each alias with its own wavenumber)
+        total = jnp.zeros((n_r, n_x), jnp.complex128)  # (η, x'): FFTs on the last axis
+        for index, (cols, eta_m) in enumerate(alias_sets):
+            per_alias = 0.0
+            for order, per_order in zip(orders, spectra, strict=True):
+                along = jnp.fft.ifft(per_order[index].T, axis=-1)  # (η, x')
+                per_alias = per_alias + along * (pointing_scale**order)[None, :]
+            if mode != "ideal":
+                per_alias = per_alias * jnp.exp(-1j * (eta_m[:, None] + k0) * delta_r[None, :])
+            total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
+        raw = jnp.fft.ifft(total.T, axis=1)[pad : pad + n_pulses, :n_range]
         return raw.astype(dtype)
 
 
