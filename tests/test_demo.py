@@ -24,3 +24,13 @@ def test_cli_reports_bad_input_in_one_line(capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert err.startswith("sarjax: error:") and "num_pulses" in err
+
+
+def test_check_command_prints_budgets(capsys):
+    assert sarjax.cli.main(["check", "--deviation", "0.001"]) == 0
+    out = capsys.readouterr().out
+    for name in ("epsilon_11", "epsilon_12", "epsilon_13", "epsilon_az"):
+        assert name in out
+    assert "would choose: small_deviation" in out
+    assert sarjax.cli.main(["check", "--deviation", "5", "--cycles", "2"]) == 0
+    assert "would choose: time_domain" in capsys.readouterr().out
