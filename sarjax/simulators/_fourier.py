@@ -357,18 +357,18 @@ class _FourierBase(AbstractSimulator):
         alias_sets = []  # (column indices or None for all, wavenumbers)
         for m in range(-self.range_aliases, self.range_aliases + 1):
             if m == 0:
-                alias_sets.append((None, eta + 0.0))
+                alias_sets.append((0, None, eta + 0.0))
                 continue
             count = n_r if self.alias_columns is None else min(self.alias_columns, n_r)
             if count == 0:
                 continue
             if count >= n_r:
-                alias_sets.append((None, eta + m * alias_step))
+                alias_sets.append((m, None, eta + m * alias_step))
                 continue
             # m > 0 reaches the upper band edge from the most negative η (columns half…)
             cols = (half + np.arange(count)) if m > 0 else (half - 1 - np.arange(count))
             cols = np.mod(cols, n_r)
-            alias_sets.append((cols, eta[cols] + m * alias_step))
+            alias_sets.append((m, cols, eta[cols] + m * alias_step))
 
         def row_weight(order):
             """(n_x,) the n-th pattern term at the stationary point, (−L/λ)ⁿ W²⁽ⁿ⁾(u*)/n!."""
@@ -437,11 +437,15 @@ class _FourierBase(AbstractSimulator):
 
         near = acquisition.near_range
 
-        def synthesize(lines, envelope=False):
+        def synthesize(lines, envelope=False, all_aliases=True):
             """Per range alias m: (1/Δr) C(η_m) e^{jη_m r'_0} Σ_j F_j e^{−jκ(ξ, η_m) r_j}, as a
-            list of (ξ, columns) arrays; with ``envelope`` also multiplied by −jη_m."""
+            list of (ξ, columns) arrays (None for skipped aliases); with ``envelope`` also
+            multiplied by −jη_m; ``all_aliases=False`` keeps only m = 0."""
             out = []
-            for _cols, eta_m in alias_sets:
+            for m, _cols, eta_m in alias_sets:
+                if m and not all_aliases:
+                    out.append(None)
+                    continue
                 kappa = kappa_fn(radar, xi[:, None], eta_m[None, :])
                 if prepared.gridded and prepared.ranges.shape[0] > 1:
                     step = prepared.ranges[1] - prepared.ranges[0]
@@ -460,23 +464,32 @@ class _FourierBase(AbstractSimulator):
         # δx/X = (r + δr_xr) δ_az / X ≈ (L/λ)(1 + δr/r₀) δ_az; (−L/λ)ⁿ is in line_spectra
         pointing_scale = (1 + delta_r / radar.reference_range) * pointing_full
         if mode == "moderate":  # the pattern precedes the motion phase: one synthesis each
-            spectra = [synthesize(line_spectra(order)) for order in orders]
+            # pointing terms are ≲ 5 % of the echo: their range aliases (≲ −25 dB of them)
+            # are negligible, so they are synthesised for the main alias only
+            spectra = [synthesize(line_spectra(order), all_aliases=order == 0)
+                       for order in orders]
             if self.envelope_correction:
                 # range envelope of ψ (the seed's condition (12)) to first order,
                 # e^{−jηψ} ≈ 1 − jηψ, on the main term (pointing terms are already small)
                 correction = synthesize(line_spectra(0, envelope=True), True)
                 spectra[0] = [a + b for a, b in zip(spectra[0], correction, strict=True)]
         else:  # the pattern is a per-ξ factor: synthesise once, weight per order
-            common = [jax.lax.optimization_barrier(a) for a in synthesize(line_spectra(None))]
-            spectra = [[a * row_weight(order)[:, None] for a in common] for order in orders]
+            common = synthesize(line_spectra(None))
+            spectra = [
+                [None if (a is None or (m and order)) else a * row_weight(order)[:, None]
+                 for (m, _, _), a in zip(alias_sets, common, strict=True)]
+                for order in orders
+            ]
 
         # per pulse: Σ_n δ_azⁿ h̃_n, then the deviation δr(x') shifts envelope and phase,
         # exp[−j(η_m + k₀) δr(x')], separately for each range alias (a fractional shift of
         # the sampled echo moves each alias with its own wavenumber)
         total = jnp.zeros((n_r, n_x), jnp.complex128)  # (η, x'): FFTs on the last axis
-        for index, (cols, eta_m) in enumerate(alias_sets):
+        for index, (_, cols, eta_m) in enumerate(alias_sets):
             per_alias = 0.0
             for order, per_order in zip(orders, spectra, strict=True):
+                if per_order[index] is None:
+                    continue
                 along = jnp.fft.ifft(per_order[index].T, axis=-1)  # (η, x')
                 per_alias = per_alias + along * (pointing_scale**order)[None, :]
             if mode != "ideal":
