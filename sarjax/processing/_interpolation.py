@@ -24,7 +24,7 @@ def next_fast_len(n: int) -> int:
     return int(best)
 
 
-def sinc_interpolate(values, positions, *, taps: int = 12):
+def sinc_interpolate(values, positions, *, taps: int = 12, periodic: bool = False):
     """Windowed-sinc interpolation of uniformly sampled values.
 
     Kernel ``sinc(d) · (1 − (d/h)²)³`` with ``h = taps/2``: on 2× oversampled data its
@@ -34,8 +34,10 @@ def sinc_interpolate(values, positions, *, taps: int = 12):
     Args:
         values: (..., n) samples at integer positions 0 … n−1 (band-limited, preferably
             oversampled ≥ 2×).
-        positions: (..., m) fractional sample positions; taps beyond the ends read zero.
+        positions: (..., m) fractional sample positions; taps beyond the ends read zero
+            (or wrap around with ``periodic``).
         taps: kernel length (even).
+        periodic: treat ``values`` as one period of a periodic sequence.
 
     Returns:
         (..., m) interpolated values.
@@ -52,6 +54,8 @@ def sinc_interpolate(values, positions, *, taps: int = 12):
     sinc = jnp.where(tiny, 1.0, sin_term / (jnp.pi * jnp.where(tiny, 1.0, distance)))
     window = jnp.clip(1.0 - (distance / half) ** 2, 0.0, 1.0) ** 3
     index = base.astype(jnp.int32)[..., None] + offsets
+    if periodic:
+        return jnp.sum(sinc * window * _gather(values, jnp.mod(index, n)), axis=-1)
     valid = (index >= 0) & (index < n)
     gathered = _gather(values, jnp.clip(index, 0, n - 1))
     return jnp.sum(jnp.where(valid, sinc * window, 0.0) * gathered, axis=-1)

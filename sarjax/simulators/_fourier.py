@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from ..processing._interpolation import next_fast_len
+from ..processing._interpolation import next_fast_len, sinc_interpolate
 from ..scene import PointTargets, ReflectivityGrid
 from ._base import AbstractSimulator
 
@@ -134,26 +134,6 @@ def _kappa_b(radar, xi, eta):
     return (a - b) / (jnp.sqrt(a) + jnp.sqrt(b))
 
 
-def _interp_periodic(values, position, taps=12):
-    """Windowed-sinc interpolation of a periodic sequence (last axis) at fractional
-    positions (any real; wrapped)."""
-    n = values.shape[-1]
-    half = taps // 2
-    base = jnp.floor(position)
-    frac = position - base
-    offsets = jnp.arange(-half + 1, half + 1).reshape((1,) * position.ndim + (taps,))
-    distance = frac[..., None] - offsets
-    sign = jnp.where(offsets % 2 == 0, 1.0, -1.0)
-    sin_term = jnp.sin(jnp.pi * frac)[..., None] * sign
-    tiny = jnp.abs(distance) < 1e-12
-    sinc = jnp.where(tiny, 1.0, sin_term / (jnp.pi * jnp.where(tiny, 1.0, distance)))
-    window = jnp.clip(1.0 - (distance / half) ** 2, 0.0, 1.0) ** 3
-    index = jnp.mod(base.astype(jnp.int32)[..., None] + offsets, n)
-    flat = index.reshape(index.shape[:-2] + (-1,))
-    gathered = jnp.take_along_axis(values, flat, axis=-1).reshape(index.shape)
-    return jnp.sum(sinc * window * gathered, axis=-1)
-
-
 # --------------------------------------------------------------------------------------
 # range synthesis: Σ_j F_j(ξ) exp(−j κ(ξ, η) r_j)
 # --------------------------------------------------------------------------------------
@@ -190,19 +170,22 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
     return out * jnp.exp(-1j * kappa * r_c)
 
 
-def synthesize_grid(lines, first_range, range_step, kappa, taps=12):
+def synthesize_grid(lines, first_range, range_step, kappa, taps=8):
     """Inverse Stolt mapping over a uniform range grid r_j = r₀ + j Δr.
 
-    Σ_j F_j e^{−jκ r_j} = e^{−jκ r₀} D(κ Δr), with D the DTFT of F over j (2π-periodic),
-    sampled by a 2×-oversampled FFT and interpolated with a windowed sinc.
+    Σ_j F_j e^{−jκ r_j} = e^{−jκ r_c} D(κ Δr), ``D(ω) = Σ_j F_j e^{−jω(j − j_c)}`` the
+    2π-periodic DTFT about the middle line ``j_c`` (so its harmonics span ±n/2), sampled
+    by a 2×-oversampled FFT and interpolated with a windowed sinc.
     """
     n_lines = lines.shape[1]
     p = next_fast_len(2 * n_lines)
-    dtft = jnp.fft.fft(lines, n=p, axis=1)  # D(ω_k), ω_k = 2πk/p
+    centre = n_lines // 2
+    padded = jnp.roll(jnp.pad(lines, ((0, 0), (0, p - n_lines))), -centre, axis=1)
+    dtft = jnp.fft.fft(padded, axis=1)  # D(ω_k), ω_k = 2πk/p
     dtft = jax.lax.optimization_barrier(dtft)
     position = kappa * range_step * (p / (2 * jnp.pi))
-    out = _interp_periodic(dtft, position, taps=taps)
-    return out * jnp.exp(-1j * kappa * first_range)
+    out = sinc_interpolate(dtft, position, taps=taps, periodic=True)
+    return out * jnp.exp(-1j * kappa * (first_range + centre * range_step))
 
 
 # --------------------------------------------------------------------------------------
