@@ -292,6 +292,7 @@ class _FourierBase(AbstractSimulator):
             return self
         footprint = float(radar.footprint(np.max(np.asarray(scene.range))))
         pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
+        pad = -(-pad // 128) * 128  # coarse steps: new target ranges rarely recompile
         chirp = int(float(radar.chirp_samples)) + 2
         n_r = next_fast_len(acquisition.num_range + chirp)
         # columns per range alias where |C(η ± 2π/Δr)| exceeds 1e-4 of the peak
