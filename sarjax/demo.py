@@ -73,7 +73,7 @@ def run_demo(out_dir="sarjax_demo", *, num_pulses=None, log=print):
         f"{time.perf_counter() - t0:.1f} s")
 
     t0 = time.perf_counter()
-    uniform = {"azimuth_weighting": "uniform"}  # full PRF band, as seed 000 Table 3
+    uniform = {"azimuth_weighting": "uniform"}  # full PRF band, as seed 000 Table 3 (default)
     images = {
         "straight track": focus(radar, raw_ideal, **uniform),
         "no MoCo": focus(radar, raw, **uniform),

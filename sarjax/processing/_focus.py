@@ -56,7 +56,7 @@ def focus(
     azimuth=None,
     range=None,
     upsample: int = 8,
-    azimuth_weighting: str = "antenna",
+    azimuth_weighting: str = "uniform",
 ) -> Image:
     """Focus raw data into a complex image (physics.md §11).
 
@@ -72,11 +72,12 @@ def focus(
         azimuth: back-projection output azimuths x [m] (default: the pulse positions).
         range: back-projection output slant ranges r [m] (default: the range samples).
         upsample: back-projection range upsampling before linear interpolation.
-        azimuth_weighting: ω-k only: ``"antenna"`` keeps the natural two-way pattern
-            weighting of the azimuth spectrum (sinc²: IRW ≈ 1.6 v/PRF, low sidelobes);
-            ``"uniform"`` equalises it over the PRF band with a floor of 0.05 where the
-            pattern vanishes at the band edges (airborne set: IRW ≈ 0.255 m = 1.15 v/PRF,
-            PSLR ≈ −13.4 dB; seed 000 Table 3 reports 0.23 m).
+        azimuth_weighting: ω-k only: ``"uniform"`` (default) equalises the two-way
+            pattern over the PRF band, with a floor of 0.05 where the pattern vanishes at
+            the band edges, as the seeds' point-target tables do (airborne set: IRW ≈
+            0.255 m = 1.15 v/PRF, PSLR ≈ −13.4 dB; seed 000 Table 3 reports 0.23 m);
+            ``"antenna"`` keeps the natural sinc² weighting of the azimuth spectrum
+            (IRW ≈ 0.39 m, sidelobes below −35 dB).
 
     Returns:
         :class:`~sarjax.Image` on (x, r); a target at (x, r) focuses there with phase
