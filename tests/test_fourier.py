@@ -12,9 +12,9 @@ RADAR = sj.presets.airborne_xband()
 X = (np.arange(RADAR.num_pulses) - (RADAR.num_pulses - 1) / 2) * float(RADAR.azimuth_spacing)
 
 
-def _focused_nmse(radar, test, ref, motion=None):
-    a = np.asarray(sj.focus(radar, test, motion=motion).data)
-    b = np.asarray(sj.focus(radar, ref, motion=motion).data)
+def _focused_nmse(radar, test, ref, motion=None, weighting="uniform"):
+    a = np.asarray(sj.focus(radar, test, motion=motion, azimuth_weighting=weighting).data)
+    b = np.asarray(sj.focus(radar, ref, motion=motion, azimuth_weighting=weighting).data)
     return nmse_db(a, b)
 
 
@@ -64,9 +64,12 @@ def test_reflectivity_grid_with_heights_matches_time_domain(method):
     ref = sj.simulate(radar, grid, motion, **kw)
     raw = sj.simulate(radar, grid, motion, method=method, **kw)
     assert raw.method == method
-    # −30 dB focused: the grid path adds the windowed-sinc interpolation (≈ −49 dB) to
-    # the point path's residuals (≈ −38 dB for three targets)
-    assert _focused_nmse(radar, raw, ref, motion) <= -30.0
+    # −30 dB focused with the natural antenna weighting: the grid path adds the
+    # windowed-sinc interpolation (≈ −49 dB) to the point path's residuals (≈ −38 dB)
+    assert _focused_nmse(radar, raw, ref, motion, weighting="antenna") <= -30.0
+    # the default full-band focusing boosts the band edges (pattern floor 0.05), where
+    # the Fourier models omit the Doppler aliases: still within the issue's −25 dB
+    assert _focused_nmse(radar, raw, ref, motion) <= -25.0
 
 
 def test_pointing_order_improves_accuracy():

@@ -469,18 +469,21 @@ class _FourierBase(AbstractSimulator):
         # per pulse: Σ_n δ_azⁿ h̃_n, then the deviation δr(x') shifts envelope and phase,
         # exp[−j(η_m + k₀) δr(x')], separately for each range alias (a fractional shift of
         # the sampled echo moves each alias with its own wavenumber)
-        total = jnp.zeros((n_r, n_x), jnp.complex128)  # (η, x'): FFTs on the last axis
+        keep = slice(pad, pad + n_pulses)  # per-pulse work only on the acquired pulses
+        scale_kept = pointing_scale[keep]
+        delta_kept = delta_r[keep]
+        total = jnp.zeros((n_r, n_pulses), jnp.complex128)  # (η, x'): FFTs on the last axis
         for index, (_, cols, eta_m) in enumerate(alias_sets):
             per_alias = 0.0
             for order, per_order in zip(orders, spectra, strict=True):
                 if per_order[index] is None:
                     continue
-                along = jnp.fft.ifft(per_order[index].T, axis=-1)  # (η, x')
-                per_alias = per_alias + along * (pointing_scale**order)[None, :]
+                along = jnp.fft.ifft(per_order[index].T, axis=-1)[:, keep]  # (η, x')
+                per_alias = per_alias + along * (scale_kept**order)[None, :]
             if mode != "ideal":
-                per_alias = per_alias * jnp.exp(-1j * (eta_m[:, None] + k0) * delta_r[None, :])
+                per_alias = per_alias * jnp.exp(-1j * (eta_m[:, None] + k0) * delta_kept[None, :])
             total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
-        raw = jnp.fft.ifft(total.T, axis=1)[pad : pad + n_pulses, :n_range]
+        raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
         return raw.astype(dtype)
 
 
