@@ -67,8 +67,15 @@ def pulse_echo(radar, pulse, targets, range_axis_offset, dtype):
     delta = base[:, None] + sample_offsets[None, :]  # (scatterer, range)
     half = radar.pulse_half_length.astype(real)
     b = radar.chirp_rate.astype(real)
-    chirp = jnp.where(jnp.abs(delta) < half, jnp.exp(-1j * (b * delta * delta)), 0)
-    return jnp.sum(amplitude.astype(dtype)[:, None] * chirp.astype(dtype), axis=0)
+    phase = b * delta * delta
+    inside = jnp.abs(delta) < half
+    # cos/sin with the mask beats exp(1j·) on CPU (bit-identical)
+    chirp = jax.lax.complex(jnp.where(inside, jnp.cos(phase), 0.0),
+                            jnp.where(inside, -jnp.sin(phase), 0.0)).astype(dtype)
+    weights = amplitude.astype(dtype)
+    if weights.shape[0] <= 3:
+        return jnp.sum(weights[:, None] * chirp, axis=0)
+    return weights @ chirp  # a matrix–vector product: XLA's masked sum is slow for 4–32
 
 
 def _chunked(targets, chunk):
@@ -107,8 +114,8 @@ class TimeDomain(AbstractSimulator):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
         itemsize = jnp.dtype(dtype).itemsize
         per_cell = 4 * itemsize  # delta, chirp, product, mask temporaries
-        # wide scatterer chunks and few pulses per chunk keep both cores busy (measured in
-        # benchmarks/RESULTS.md: (8, 512) is 1.7× faster than (64, 64) on a 64 × 64 grid)
+        # any scatterer chunk ≥ 48 costs the same CPU time, ≤ 32 about 4× more
+        # (benchmarks/RESULTS.md sweep); few pulses per chunk bound the memory
         scat = self.scatterer_chunk or max(1, min(num_scatterers, 512))
         per_pulse = scat * num_range * per_cell
         pulse = self.pulse_chunk or max(
