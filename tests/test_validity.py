@@ -87,6 +87,7 @@ CI_CASES = [
     (1.0, "fast", 0.05, 4840.0, "moderate_deviation"),  # invalid, ×5.9 (ε12)
     (5.0, "slow", 0.05, 5140.0, "moderate_deviation"),  # invalid, ×5.4 (ε11)
     (5.0, "fast", 0.05, 5440.0, "moderate_deviation"),  # invalid, ×130 (ε12)
+    (1e-3, "slow", 0.23, 5140.0, "moderate_deviation"),  # invalid (ε_az); measured inaccurate
 ]
 
 
