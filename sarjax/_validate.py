@@ -111,17 +111,25 @@ def check_finite_scalar(value, name):
 
 
 def check_supported(simulator, radar, scene):
-    """Refuse model features a simulator does not implement (never ignore them silently)."""
+    """Refuse model features a simulator does not implement (never ignore them silently).
+
+    A simulator declares what it implements with the class attributes
+    ``supports_squint`` and ``supports_moving_targets`` (default False).
+    """
+    name = type(simulator).__name__
     squint = _concrete(radar.squint)
-    if squint is not None and squint != 0:
+    if squint is not None and squint != 0 and not getattr(simulator, "supports_squint", False):
         raise ValueError(
             f"radar.squint={float(squint):g} rad: squinted acquisition is not implemented by "
-            f"{type(simulator).__name__}"
+            f"{name} (use method='time_domain', 'small_deviation', 'moderate_deviation', "
+            "'high_speed' or 'chirp_scaling')"
         )
-    for name in ("velocity_range", "velocity_azimuth"):
-        v = _concrete(getattr(scene, name, None)) if hasattr(scene, name) else None
+    if getattr(simulator, "supports_moving_targets", False):
+        return
+    for field in ("velocity_range", "velocity_azimuth"):
+        v = _concrete(getattr(scene, field, None)) if hasattr(scene, field) else None
         if v is not None and np.any(v != 0):
             raise ValueError(
-                f"scene.{name} is non-zero: moving scatterers are not implemented by "
-                f"{type(simulator).__name__}"
+                f"scene.{field} is non-zero: moving scatterers are not implemented by "
+                f"{name} (use method='time_domain' or 'high_speed')"
             )

@@ -1,37 +1,150 @@
-"""Exact time-domain simulator — the reference model (physics.md §3, seed 000 eq. 19–20).
+"""Exact time-domain simulator — the reference model (physics.md §3, §8, §10; seed 000
+eq. 19–20, seed 002 eq. 32, seed 004 eq. 1–5).
 
-    h(x', r') = Σ_P γ_P · exp[−j 4πR/λ − j b (r' − R)²] · rect[(r' − R)/(cτ/2)]
-                · W²((x' − x − δx)/X),     δx = (r + δr_xr) δ_az(x'),   X = λ r / L
+    h(x', r') = Σ_P γ_P · exp[−j 4πρ/λ − j b (r' − ρ)²] · rect[(r' − ρ)/(cτ/2)] · W²(u)
 
-with the exact 3-D slant range ``R`` from the actual antenna position. The kernel is
-written for one pulse; :func:`_lift_over_pulses` maps it over pulses in chunks.
+``ρ = c τ_d / 2`` is the echo's one-way range. With the stop-and-go approximation
+(default) ``ρ = R(t)``, the exact 3-D range from the actual antenna position at the
+transmit time ``t = x'/v`` to the scatterer at that time. Without it (``stop_and_go=False``)
+the two-way delay solves seed 004 eq. 3, ``c τ_d = R(t) + R(t + τ_d)`` (the antenna moves
+on during the echo; the deviation of the pulse is held), by fixed-point iteration — the
+map contracts by ``|dR/dt|/c`` ≲ 3·10⁻⁵ per step, so three steps reach float64 precision;
+for a straight track the solution is seed 004 eq. 4.
+
+Moving scatterers (seed 004 eq. 1): ``x`` and ``r`` are the azimuth and the slant range
+of closest approach at the time ``τ₀ = x/v`` the antenna passes the scatterer's azimuth;
+the scatterer moves along track at ``v_a`` and along its line of sight from the nominal
+track (look angle ϑ held) at ``v_r``: at time ``t``, azimuth ``x + v_a (t − τ₀)`` and
+range ``r + v_r (t − τ₀)``.
+
+Pattern (squint φ_d, pointing error δ_az): the two-way pattern of the angle between the
+line of sight and the beam, ``u = −(L/λ) tan(φ − φ_d)`` with ``tan φ = (x_P − x_A)/r``,
+written with ``a = x_A − x_P`` and ``T = tan φ_d`` as
+
+    u = (a + r T − (r + δr_xr) δ_az) / (X (1 − a T / r)),    X = λ r / L,
+
+which is ``(x' − x − δx)/X`` at broadside (seed 000 eq. 20). The beam centre crosses a
+scatterer at ``x' = x − r tan φ_d`` (φ_d > 0 looks forward), where the Doppler centroid is
+``2 v sin φ_d / λ`` (azimuth wavenumber ``ξ_d = (4π/λ) sin φ_d``). Without stop-and-go the
+pattern is taken at the middle of the echo, ``t + τ_d/2``.
+
+The kernel is written for one pulse; :func:`_lift_over_pulses` maps it over pulses in
+chunks. With ``stop_and_go=True``, a broadside radar and static scatterers the broadside
+stop-and-go program runs unchanged (same bits); the general kernel gives the same values
+there up to rounding (every added term is an exact zero).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from typing import ClassVar
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .. import geometry
+from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
 
 _TWO_PI = 2 * jnp.pi
+NON_STOP_AND_GO_ITERATIONS = 3
 
 
-def scatterer_phasors(radar, pulse, targets):
-    """Per-scatterer quantities of one pulse (float64 geometry).
+def _concrete(value):
+    return None if isinstance(value, jax.core.Tracer) else np.asarray(value)
+
+
+def _line_of_sight_deviation(horizontal, vertical, slant_range, moved_range, height,
+                             platform_height):
+    """δr_xr [m] of a scatterer moved along its nominal line of sight to ``moved_range``.
+
+    As :func:`sarjax.geometry.line_of_sight_deviation`, with the scatterer's cross-track
+    position (y_P, H − h) scaled by ``moved_range / slant_range`` (the same operations,
+    so an unmoved scatterer gives the same bits).
+    """
+    scale = moved_range / slant_range
+    drop = (platform_height - height) * scale
+    y = geometry.ground_range(slant_range, height, platform_height) * scale
+    q = horizontal * (horizontal - 2 * y) + vertical * (vertical + 2 * drop)
+    return q / (jnp.sqrt(moved_range**2 + q) + moved_range)
+
+
+def relative_geometry(radar, pulse, targets, elapsed):
+    """Antenna–scatterer geometry ``elapsed`` seconds after the transmission of a pulse.
 
     Args:
         radar: the :class:`~sarjax.Radar`.
-        pulse: tuple ``(x', Δy, Δz, δ_az)`` of scalars [m, m, m, rad].
-        targets: tuple ``(x, r, h, γ)`` of (scatterer,) arrays.
+        pulse: ``(x', Δy, Δz, δ_az)`` scalars [m, m, m, rad] (x' at transmission).
+        targets: ``(x, r, h, γ, v_r, v_a)`` (scatterer,) arrays [m, m, m, –, m/s, m/s].
+        elapsed: time after transmission [s], scalar or (scatterer,).
 
     Returns:
-        ``(range_offset, amplitude)``: ``R − r`` [m] and the complex weight
-        ``γ W²(u) exp(−j 4πR/λ)``, each (scatterer,).
+        ``(along, moved_range, los, offset)``, each (scatterer,) [m]: the along-track offset
+        antenna − scatterer, the scatterer's nominal slant range ``r + v_r (t − τ₀)``, its
+        line-of-sight deviation δr_xr, and ``R − r`` (exact 3-D range minus the
+        closest-approach range ``r``).
     """
+    x_pulse, horizontal, vertical, _ = pulse
+    azimuth, slant_range, height, _, velocity_range, velocity_azimuth = targets
+    along_track = x_pulse - azimuth
+    since_crossing = along_track / radar.velocity + elapsed  # t − τ₀ [s]
+    along = along_track + radar.velocity * elapsed - velocity_azimuth * since_crossing
+    moved = velocity_range * since_crossing  # [m]
+    moved_range = slant_range + moved
+    los = _line_of_sight_deviation(
+        horizontal, vertical, slant_range, moved_range, height, radar.height
+    )
+    offset = geometry.range_offset(along, moved_range, los) + moved  # R − r
+    return along, moved_range, los, offset
+
+
+def echo_range_offset(radar, pulse, targets, stop_and_go=True):
+    """One-way echo range ``ρ = c τ_d / 2`` of each scatterer minus ``r`` [m].
+
+    Args:
+        radar, pulse, targets: as :func:`relative_geometry`.
+        stop_and_go: True: ``ρ = R(t)``; False: seed 004 eq. 3 solved by fixed-point
+            iteration, ``ρ = (R(t) + R(t + 2ρ/c)) / 2``.
+
+    Returns:
+        ``(offset, pattern_geometry)``: ``ρ − r`` (scatterer,) [m] and the
+        ``(along, moved_range, los)`` at which the pattern is evaluated (transmit time,
+        or the middle of the echo).
+    """
+    along, moved_range, los, offset = relative_geometry(radar, pulse, targets, 0.0)
+    if stop_and_go:
+        return offset, (along, moved_range, los)
+    slant_range = targets[1]
+    echo = offset
+    for _ in range(NON_STOP_AND_GO_ITERATIONS):
+        delay = 2 * (slant_range + echo) / SPEED_OF_LIGHT  # τ_d [s]
+        echo = 0.5 * (offset + relative_geometry(radar, pulse, targets, delay)[3])
+    middle = (slant_range + echo) / SPEED_OF_LIGHT  # τ_d / 2 [s]
+    along_m, range_m, los_m, _ = relative_geometry(radar, pulse, targets, middle)
+    return echo, (along_m, range_m, los_m)
+
+
+def pattern_argument(radar, pointing, along, slant_range, los):
+    """u = (a + r T − (r + δr_xr) δ_az) / (X (1 − a T / r)), T = tan φ_d (see module doc).
+
+    Args:
+        radar: the :class:`~sarjax.Radar`.
+        pointing: δ_az [rad].
+        along: a = x_A − x_P [m]; slant_range: r [m]; los: δr_xr [m].
+    """
+    t = jnp.tan(radar.squint)
+    footprint = radar.footprint(slant_range)  # X = λ r / L [m]
+    numerator = along + slant_range * t - (slant_range + los) * pointing
+    return numerator / (footprint * (1 - along * t / slant_range))
+
+
+def _broadside_static_phasors(radar, pulse, targets):
+    """:func:`scatterer_phasors` for a broadside radar, static scatterers and stop-and-go
+    (``targets`` = ``(x, r, h, γ)``): the same values, in the operations (and so the
+    compiled program and its bits) of the broadside model."""
     x_pulse, horizontal, vertical, pointing = pulse
     azimuth, slant_range, height, reflectivity = targets
     los = geometry.line_of_sight_deviation(
@@ -39,30 +152,56 @@ def scatterer_phasors(radar, pulse, targets):
     )
     along_track = x_pulse - azimuth
     offset = geometry.range_offset(along_track, slant_range, los)  # R − r [m]
-    footprint = radar.footprint(slant_range)  # X = λ r / L [m]
-    u = (along_track - (slant_range + los) * pointing) / footprint
+    u = (along_track - (slant_range + los) * pointing) / radar.footprint(slant_range)
     k0 = radar.wavenumber
-    # 4πR/λ mod 2π, formed from the exact decomposition R = r + (R − r) in float64.
     phase = jnp.mod(jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset, _TWO_PI)
     amplitude = reflectivity * radar.pattern(u) * jnp.exp(-1j * phase)
     return offset, amplitude
 
 
-def pulse_echo(radar, pulse, targets, range_axis_offset, dtype):
+def scatterer_phasors(radar, pulse, targets, stop_and_go=True):
+    """Per-scatterer quantities of one pulse (float64 geometry).
+
+    Args:
+        radar: the :class:`~sarjax.Radar`.
+        pulse: tuple ``(x', Δy, Δz, δ_az)`` of scalars [m, m, m, rad].
+        targets: tuple ``(x, r, h, γ, v_r, v_a)`` of (scatterer,) arrays, or ``(x, r, h, γ)``
+            for the broadside static stop-and-go model.
+        stop_and_go: see :func:`echo_range_offset`.
+
+    Returns:
+        ``(range_offset, amplitude)``: ``ρ − r`` [m] and the complex weight
+        ``γ W²(u) exp(−j 4πρ/λ)``, each (scatterer,).
+    """
+    if len(targets) == 4:
+        return _broadside_static_phasors(radar, pulse, targets)
+    slant_range, reflectivity = targets[1], targets[3]
+    offset, (along, moved_range, los) = echo_range_offset(radar, pulse, targets, stop_and_go)
+    u = pattern_argument(radar, pulse[3], along, moved_range, los)
+    k0 = radar.wavenumber
+    # 4πρ/λ mod 2π, formed from the exact decomposition ρ = r + (ρ − r) in float64.
+    phase = jnp.mod(jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset, _TWO_PI)
+    amplitude = reflectivity * radar.pattern(u) * jnp.exp(-1j * phase)
+    return offset, amplitude
+
+
+def pulse_echo(radar, pulse, targets, range_axis_offset, dtype, stop_and_go=True):
     """Echo of one pulse from a set of scatterers: (range,) complex samples.
 
     Args:
         radar: the :class:`~sarjax.Radar`.
         pulse: ``(x', Δy, Δz, δ_az)`` scalars.
-        targets: ``(x, r, h, γ)`` (scatterer,) arrays.
+        targets: ``(x, r, h, γ, v_r, v_a)`` (scatterer,) arrays (or ``(x, r, h, γ)``, see
+            :func:`scatterer_phasors`).
         range_axis_offset: ``(near_range, r'_k − near_range)``: a scalar [m] and a (range,)
             array [m] in the kernel's real dtype.
         dtype: complex dtype of the samples (complex64 or complex128).
+        stop_and_go: see :func:`echo_range_offset`.
     """
     near_range, sample_offsets = range_axis_offset
     real = jnp.finfo(dtype).dtype
-    offset, amplitude = scatterer_phasors(radar, pulse, targets)
-    # r' − R = (near − r − (R − r)) + (r'_k − near); the first term in float64.
+    offset, amplitude = scatterer_phasors(radar, pulse, targets, stop_and_go)
+    # r' − ρ = (near − r − (ρ − r)) + (r'_k − near); the first term in float64.
     base = (near_range - targets[1] - offset).astype(real)
     delta = base[:, None] + sample_offsets[None, :]  # (scatterer, range)
     half = radar.pulse_half_length.astype(real)
@@ -98,17 +237,41 @@ def _lift_over_pulses(kernel, pulses, pulse_chunk):
 
 
 class TimeDomain(AbstractSimulator):
-    """Exact time-domain simulator (seed 000 "Algorithm C"), physics.md §3.
+    """Exact time-domain simulator (seed 000 "Algorithm C"), physics.md §3, §8, §10:
+    squint, moving scatterers and (``stop_and_go=False``) the non-stop-and-go delay.
 
     Attributes:
+        stop_and_go: True (default): the echo range is the range at the transmit time;
+            False: the two-way delay of seed 004 eq. 3 (see the module docstring).
+        general: whether the kernel handles squint and moving scatterers (set by
+            ``prepare()`` from the concrete inputs: False for a broadside radar, static
+            scatterers and stop-and-go, which runs the broadside program unchanged).
         pulse_chunk: pulses evaluated together (vmapped); bounds memory. None = auto.
         scatterer_chunk: scatterers evaluated together per scan step. None = auto.
         memory_budget: bytes allowed for the kernel's intermediate arrays (auto chunks).
     """
 
+    supports_squint: ClassVar[bool] = True
+    supports_moving_targets: ClassVar[bool] = True
+
+    stop_and_go: bool = eqx.field(static=True, default=True)
     pulse_chunk: int | None = eqx.field(static=True, default=None)
     scatterer_chunk: int | None = eqx.field(static=True, default=None)
     memory_budget: int = eqx.field(static=True, default=256 * 2**20)
+    general: bool | None = eqx.field(static=True, default=None)
+
+    def prepare(self, radar, scene, acquisition):
+        """Decide (eagerly) whether the general kernel is needed."""
+        if self.general is not None:
+            return self
+        general = not self.stop_and_go
+        squint = _concrete(radar.squint)
+        general = general or squint is None or bool(squint != 0)
+        if not isinstance(scene, ReflectivityGrid):
+            for v in (scene.velocity_range, scene.velocity_azimuth):
+                c = _concrete(v)
+                general = general or c is None or bool(np.any(c != 0))
+        return dataclasses.replace(self, general=general)
 
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
@@ -131,6 +294,8 @@ class TimeDomain(AbstractSimulator):
         horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
         pulses = (x_pulse, horizontal, vertical, pointing)
         targets = (scene.azimuth, scene.range, scene.height, scene.reflectivity)
+        if self.general is not False:
+            targets = targets + (scene.velocity_range, scene.velocity_azimuth)
         pulse_chunk, scat_chunk = self.chunks(
             acquisition.num_pulses, acquisition.num_range, scene.num_scatterers, dtype
         )
@@ -140,7 +305,7 @@ class TimeDomain(AbstractSimulator):
 
         def one_pulse(pulse):
             def accumulate(acc, chunk):
-                return acc + pulse_echo(radar, pulse, chunk, axis, dtype), None
+                return acc + pulse_echo(radar, pulse, chunk, axis, dtype, self.stop_and_go), None
 
             init = jnp.zeros(acquisition.num_range, dtype)
             out, _ = jax.lax.scan(accumulate, init, chunked)
