@@ -45,6 +45,23 @@ class _Gridded(eqx.Module):
         """(n_azimuth, n_range)."""
         return self.data.shape
 
+    def to_xarray(self, *, radar=None, scene=None, motion=None, attrs=None):
+        """This product (and the run's parameters, when given) as an ``xarray.Dataset``
+        with dims ``("azimuth", "range")`` in metres (see :mod:`sarjax.io`)."""
+        from .io import to_xarray
+
+        return to_xarray(self, radar=radar, scene=scene, motion=motion, attrs=attrs)
+
+    @classmethod
+    def from_xarray(cls, dataset):
+        """Inverse of :meth:`to_xarray` (see :func:`sarjax.io.from_xarray`)."""
+        from .io import from_xarray
+
+        product = from_xarray(dataset)
+        if not isinstance(product, cls):
+            raise ValueError(f"the dataset holds {type(product).__name__}, not {cls.__name__}")
+        return product
+
 
 class RawData(_Gridded):
     """Complex baseband raw data.

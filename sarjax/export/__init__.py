@@ -1,0 +1,13 @@
+"""Export to NGA standard files through sarkit: CPHD 1.1.0 (FX domain) and CRSD 1.0.
+
+The flat sarjax geometry is laid on the WGS-84 Earth by a
+:class:`GeoReference` (see :mod:`sarjax.export._frame`); the conventions (phase sign,
+reference point, which track goes into the metadata, pulse timing) are in the docstrings
+of :func:`to_cphd` and :func:`to_crsd`.
+"""
+
+from ._cphd import to_cphd as to_cphd
+from ._frame import GeoReference as GeoReference
+from ._frame import LocalFrame as LocalFrame
+
+__all__ = ["GeoReference", "LocalFrame", "to_cphd"]
