@@ -13,6 +13,7 @@ from .validity import choose_method
 from .simulators import (
     AbstractSimulator,
     Fourier2D,
+    HighSpeed,
     ModerateDeviation,
     SmallDeviation,
     TimeDomain,
@@ -25,6 +26,7 @@ _METHODS = {
     "algorithm_a": SmallDeviation,
     "moderate_deviation": ModerateDeviation,
     "algorithm_b": ModerateDeviation,
+    "high_speed": HighSpeed,
 }
 
 

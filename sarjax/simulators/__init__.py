@@ -5,3 +5,4 @@ from ._time_domain import TimeDomain as TimeDomain
 from ._fourier import Fourier2D as Fourier2D
 from ._fourier import ModerateDeviation as ModerateDeviation
 from ._fourier import SmallDeviation as SmallDeviation
+from ._high_speed import HighSpeed as HighSpeed

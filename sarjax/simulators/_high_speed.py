@@ -1,0 +1,291 @@
+"""High-speed simulator beyond stop-and-go, with moving targets (seed 004 §2–3;
+physics.md §10).
+
+Echo range (seed 004 eq. 4, the exact solution of its eq. 3 for a straight track): for a
+scatterer with closest-approach range ``r`` at the time its azimuth is crossed, moving at
+``(v_r, v_a)``, ``s`` the transmit time from that crossing,
+
+    ρ(s) = c τ_d / 2 = α₀ [R(s) + (v_eq²/c) s + r v_r / c],
+    R(s)² = v_eq² (s − s*)² + r² α²,   s* = −r v_r / v_eq²,
+    v_eq² = v_r² + (v − v_a)²,  α = √(1 − v_r²/v_eq²),  α₀ = 1 / (1 − v_eq²/c²).
+
+**2-D spectrum (seed 004 eq. 10–11, derived here).** With ``k = η + 4π/λ`` (two-way range
+wavenumber, ``k = 4π(f₀ + f_t)/c``) and ``ξ`` the azimuth wavenumber of ``x' = v t``
+(``ξ = 2π f_τ / v``), the azimuth stationary point of ``k ρ(s) + ξ v s`` satisfies
+``k α₀ (v_eq² (s − s*)/R + v_eq²/c) = −ξ v``, i.e. ``(s − s*)/R = −β / v_eq`` with
+
+    β = ξ v / (k α₀ v_eq) + v_eq / c,
+
+so ``s − s* = −β r α / (v_eq √(1 − β²))`` and ``R = r α / √(1 − β²)``. Substituting,
+the terms ``k α₀ r v_r / c`` and ``k α₀ (v_eq²/c) s*`` cancel exactly and the phase is
+
+    Ψ(ξ, k) = ξ (x + v s*) + k α₀ α r √(1 − β²)
+            = ξ x + r κ(ξ, k),   κ = α₀ α √(k² − (ξ v / (α₀ v_eq) + k v_eq / c)²) − ξ v v_r / v_eq².
+
+In seed 004's frequencies, ``k α₀ α √(1 − β²) r = (4π r α₀ α / c)
+√((f₀ + f_t)² − [(v_eq/c)(f₀ + f_t) + c f_τ / (2 α₀ v_eq)]²)``: eq. 11's first term, and the
+range-frequency mapping of eq. 17 is ``f_t → √((f₀ + f_t)² − [(v_eq/c)(f₀ + f_t) +
+c f_τ/(2α₀ v_eq)]²) − f₀`` — with ``v_eq/c``, not the ``v_eq²/c`` eq. 17 prints (which is
+not even dimensionless). ``−ξ v v_r r / v_eq²`` is the range-velocity azimuth shift of
+eq. 14 (``2π f_τ r v_r / v_eq²``). The constant ``r v_r`` terms that eq. 11 keeps (its
+second and fourth) cancel in this derivation (they cannot both be right: eq. 11 has them
+proportional to ``f₀ − f_t``, not ``f₀ + f_t``); the exact-model tests decide.
+
+Stationary-phase amplitude (per metre of pulse spacing):
+``A = (1/Δx) √(2π r α v² / (k α₀ v_eq² (1 − β²)^{3/2})) e^{−jπ/4}``, which reduces to the
+stop-and-go ``(1/Δx) √(2π k² r / (k² − ξ²)^{3/2})``. The antenna pattern is taken at the
+stationary point: all of ``s − s*``, ``s*``, ``R``, ``ρ`` scale with ``r``, so the look
+angle — and ``W²`` — is a function of ``(ξ, k)`` only (evaluated at the middle of the echo,
+as in the exact model, with its squint form).
+
+**Steps** (seed 004 §3, Fig. 3): the scene is split into velocity groups (one per distinct
+``(v_r, v_a)``; static scatterers are one group); per group, range lines ``F_j(ξ)``
+(azimuth FFT of the reflectivity, carrier ``e^{−j k₀ r_j}``), the sum
+``Σ_j F_j(ξ) √r_j e^{−j (κ − k₀) r_j}`` — the inverse Stolt (range-frequency) mapping,
+for a grid an FFT over lines and windowed-sinc interpolation — then × chirp spectrum
+(reference function of range), × ``A W²``; groups summed; 2-D inverse FFT. The azimuth
+wavenumbers are centred on the Doppler centroid ``ξ_d = (4π/λ) sin φ_d``, so squinted
+(and PRF-aliased) spectra are synthesised at their true ξ. The work is done in chunks of
+range-wavenumber columns, each taken to pulses at once, so memory is
+``O(N_x N_r + N_x' · chunk)``.
+
+``stop_and_go=True`` gives the same construction with ``α₀ = 1`` and no ``v_eq/c``
+(the stop-and-go spectrum), for comparison.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import ClassVar
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..constants import SPEED_OF_LIGHT
+from ..processing._interpolation import next_fast_len
+from ..scene import PointTargets, ReflectivityGrid
+from ._base import AbstractSimulator
+from ._fourier import (
+    _grid_azimuth_fft,
+    check_grid_scene,
+    chirp_spectrum,
+    grid_dtft,
+    synthesize_grid,
+)
+
+_TWO_PI = 2 * jnp.pi
+
+
+def nearest_alias(xi, k, squint, dx):
+    """(n_x, n_c) the alias ``ξ + 2πm/Δx`` of each sampled azimuth wavenumber nearest the
+    Doppler centroid at that range wavenumber, ``k sin φ_d`` (the centroid moves with k:
+    across a wide band at large squint by more than the PRF band)."""
+    period = _TWO_PI / dx
+    return xi + period * jnp.round((k * jnp.sin(squint) - xi) / period)
+
+
+def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, chunk=16):
+    """(n_x, n_c) Σ_j w_j e^{−jξ (x_j − x0)} e^{−jκ (r_j − r_ref)} for points, with ξ and κ
+    given per (ξ, η) cell; returns it and r_ref (the first range)."""
+    n = weights.shape[0]
+    chunk = min(chunk, n)
+    n_chunks = -(-n // chunk)
+    pad = n_chunks * chunk - n
+    r_ref = ranges[0]
+
+    def prep(a, fill):
+        return jnp.pad(a, (0, pad), constant_values=fill).reshape(n_chunks, chunk)
+
+    def body(acc, block):
+        w, x, r = block
+        phase = xi[None] * (x - x0)[:, None, None] + kappa[None] * (r - r_ref)[:, None, None]
+        return acc + jnp.sum(w[:, None, None] * jnp.exp(-1j * phase), axis=0), None
+
+    init = jnp.zeros(kappa.shape, jnp.complex128)
+    out, _ = jax.lax.scan(body, init, (prep(weights, 0.0), prep(azimuths, azimuths[0]),
+                                       prep(ranges, ranges[0])))
+    return out, r_ref
+
+
+def spectrum_terms(radar, xi, k, velocity_range, velocity_azimuth, stop_and_go=False):
+    """Per-(ξ, k) factors of one velocity group (module docstring).
+
+    Args:
+        radar: the :class:`~sarjax.Radar`.
+        xi: azimuth wavenumbers ξ [rad/m]; k: two-way range wavenumbers η + 4π/λ [rad/m]
+            (broadcastable).
+        velocity_range, velocity_azimuth: the group's (v_r, v_a) [m/s] (scalars).
+        stop_and_go: the stop-and-go spectrum instead.
+
+    Returns:
+        ``(kappa_rel, amplitude, u)``: ``κ − 4π/λ`` [rad/m] (the range-line phase per metre,
+        azimuth shift included), ``A / √r`` [complex, per √m] and the pattern argument at
+        the stationary point.
+    """
+    v = radar.velocity
+    v_r, v_a = velocity_range, velocity_azimuth
+    v_eq2 = v_r**2 + (v - v_a) ** 2
+    v_eq = jnp.sqrt(v_eq2)
+    alpha = jnp.sqrt(1 - v_r**2 / v_eq2)
+    inv_c = 0.0 if stop_and_go else 1.0 / SPEED_OF_LIGHT
+    alpha0 = 1 / (1 - v_eq2 * inv_c**2)
+    beta = xi * v / (k * alpha0 * v_eq) + v_eq * inv_c
+    root = jnp.sqrt(jnp.maximum(1 - beta**2, 1e-12))
+    k0 = radar.wavenumber
+    kappa = k * alpha0 * alpha * root - xi * v * v_r / v_eq2
+    kappa_rel = (kappa - k0)
+    amplitude = jnp.sqrt(
+        _TWO_PI * alpha * v**2 / (k * alpha0 * v_eq2 * root**3)
+    ) / radar.azimuth_spacing * jnp.exp(-1j * jnp.pi / 4)
+    # look angle at the stationary point, per metre of r (everything scales with r)
+    s_star = -v_r / v_eq2
+    transmit = -beta * alpha / (v_eq * root) + s_star  # s / r [s/m]
+    echo = alpha0 * (alpha / root + v_eq2 * inv_c * transmit + v_r * inv_c)  # ρ / r
+    middle = transmit + echo * inv_c  # (t − τ₀) / r at the middle of the echo
+    along = (v - v_a) * middle / (1 + v_r * middle)  # (x_A − x_P) / (current range)
+    t = jnp.tan(radar.squint)
+    u = radar.antenna_length / radar.wavelength * (along + t) / (1 - along * t)
+    return kappa_rel, amplitude, u
+
+
+class HighSpeed(AbstractSimulator):
+    """High-speed (non-stop-and-go) 2-D Fourier simulator with moving targets, seed 004
+    §3; the derivation and steps are in the module docstring.
+
+    Attributes:
+        stop_and_go: False (default): seed 004's spectrum; True: the stop-and-go one.
+        azimuth_padding: extra azimuth samples on each side, in footprints X (avoids the
+            circular wrap of apertures).
+        range_aliases: range-spectrum aliases ±m summed (the chirp spectrum extends past
+            ±f_s/2 when f_s/Δf is close to 1).
+        taps: windowed-sinc length of the inverse Stolt interpolation (grids).
+        column_chunk: range-wavenumber columns per step (memory bound).
+        groups: velocity groups ``((v_r, v_a, indices), ...)`` (set by ``prepare()``).
+        azimuth_pad, range_fft_size: static sizes (set by ``prepare()``).
+    """
+
+    supports_squint: ClassVar[bool] = True
+    supports_moving_targets: ClassVar[bool] = True
+
+    stop_and_go: bool = eqx.field(static=True, default=False)
+    azimuth_padding: float = eqx.field(static=True, default=1.0)
+    range_aliases: int = eqx.field(static=True, default=1)
+    taps: int = eqx.field(static=True, default=8)
+    column_chunk: int = eqx.field(static=True, default=256)
+    groups: tuple | None = eqx.field(static=True, default=None)
+    azimuth_pad: int | None = eqx.field(static=True, default=None)
+    range_fft_size: int | None = eqx.field(static=True, default=None)
+
+    def prepare(self, radar, scene, acquisition):
+        """Velocity groups and FFT sizes from the concrete inputs."""
+        if isinstance(scene, ReflectivityGrid):
+            check_grid_scene(scene, radar)
+            groups = ((0.0, 0.0, None),)
+        else:
+            vr = np.asarray(scene.velocity_range, dtype=float)
+            va = np.asarray(scene.velocity_azimuth, dtype=float)
+            pairs = np.stack([vr, va], axis=1)
+            unique = np.unique(pairs, axis=0)
+            groups = tuple(
+                (float(a), float(b),
+                 tuple(int(i) for i in np.flatnonzero((vr == a) & (va == b))))
+                for a, b in unique
+            )
+            if float(np.max(np.abs(pairs))) >= float(radar.velocity):
+                raise ValueError(
+                    f"scene velocities up to {np.max(np.abs(pairs)):g} m/s reach the "
+                    f"platform velocity {float(radar.velocity):g} m/s"
+                )
+        footprint = float(radar.footprint(np.max(np.asarray(scene.range))))
+        footprint /= math.cos(float(radar.squint)) ** 2
+        pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
+        pad = -(-pad // 128) * 128
+        chirp = int(float(radar.chirp_samples)) + 2
+        # room for the range walk and curvature of an echo over the padded azimuth window
+        # (squinted echoes walk across the range window: beyond it they would wrap)
+        span = (acquisition.num_pulses + 2 * pad) * float(radar.azimuth_spacing)
+        r_min = float(np.min(np.asarray(scene.range)))
+        walk = span * abs(math.sin(float(radar.squint))) + span**2 / (8 * r_min)
+        n_r = next_fast_len(acquisition.num_range + chirp + int(walk / float(radar.range_spacing)))
+        return dataclasses.replace(self, groups=groups, azimuth_pad=pad, range_fft_size=n_r)
+
+    def __call__(self, radar, scene, motion, acquisition, dtype):
+        if not motion.is_ideal:
+            raise ValueError(
+                "method='high_speed' simulates a straight track: motion errors are not "
+                "implemented (use method='time_domain', stop_and_go=False)"
+            )
+        prepared = self if self.groups is not None else self.prepare(radar, scene, acquisition)
+        return prepared._simulate(radar, scene, acquisition, dtype)
+
+    def _simulate(self, radar, scene, acquisition, dtype):
+        n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
+        pad, n_r = self.azimuth_pad, self.range_fft_size
+        n_x = next_fast_len(n_pulses + 2 * pad)
+        dx = radar.azimuth_spacing
+        dr = radar.range_spacing
+        k0 = radar.wavenumber
+        x_pulses = acquisition.pulse_azimuths(radar)
+        x0 = x_pulses[0] - pad * dx
+        xi_c = k0 * jnp.sin(radar.squint)  # Doppler centroid wavenumber ξ_d
+        offsets = _TWO_PI * jnp.fft.fftfreq(n_x, 1.0) / dx
+        xi = xi_c + offsets  # (n_x,), about ξ_d
+        eta = _TWO_PI * jnp.fft.fftfreq(n_r, 1.0) / dr
+        near = acquisition.near_range
+        gridded = isinstance(scene, ReflectivityGrid)
+
+        # per velocity group: grid → DTFT over range lines of F_j(ξ) √r_j e^{−j k₀ r_j} on
+        # the sampled ξ; points → weights γ √r e^{−j k₀ r} (their ξ phase per cell)
+        groups = []
+        for v_r, v_a, index in self.groups:
+            if gridded:
+                # e^{−jξ_d (x_i − x0)} first: the FFT then supplies the offsets from ξ_d
+                values = (scene.reflectivity * jnp.exp(
+                    -1j * xi_c * (scene.azimuth - x0))[:, None]).T  # (n_lines, n_az)
+                spectrum = _grid_azimuth_fft(values, scene.azimuth, x0, dx, n_x)
+                ranges = scene.range
+                lines = spectrum * (jnp.sqrt(ranges) * jnp.exp(
+                    -1j * jnp.mod(k0 * ranges, _TWO_PI)))[:, None]
+                # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
+                offset = (scene.azimuth[0] - x0) / dx
+                groups.append((v_r, v_a, grid_dtft(lines), ranges, offset))
+            else:
+                idx = jnp.asarray(index)
+                ranges = scene.range[idx]
+                weight = scene.reflectivity[idx] * jnp.sqrt(ranges) * jnp.exp(
+                    -1j * jnp.mod(k0 * ranges, _TWO_PI))
+                groups.append((v_r, v_a, weight, ranges, scene.azimuth[idx]))
+
+        def columns(eta_cols):
+            """(n_pulses, chunk) raw range-spectrum columns for range wavenumbers η."""
+            total = 0.0
+            for m in range(-self.range_aliases, self.range_aliases + 1):
+                eta_m = eta_cols + m * _TWO_PI / dr
+                k = eta_m[None, :] + k0
+                xi_cells = nearest_alias(xi[:, None], k, radar.squint, dx)  # (n_x, chunk)
+                acc = 0.0
+                for v_r, v_a, data, ranges, where in groups:
+                    kappa, amplitude, u = spectrum_terms(
+                        radar, xi_cells, k, v_r, v_a, self.stop_and_go)
+                    if gridded:
+                        summed, r_ref = synthesize_grid(data, ranges, kappa, taps=self.taps)
+                        alias = jnp.round((xi_cells - xi[:, None]) * dx / _TWO_PI)
+                        summed = summed * jnp.exp(-1j * _TWO_PI * alias * where)
+                    else:
+                        summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
+                    acc = acc + summed * jnp.exp(-1j * kappa * r_ref) * amplitude * radar.pattern(u)
+                factor = chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near) / dr
+                total = total + acc * factor[None, :]
+            along = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]
+            carrier = jnp.exp(1j * xi_c * (x_pulses - x0))  # back from the ξ_d-centred grid
+            return (along * carrier[:, None]).astype(dtype)
+
+        chunk = min(self.column_chunk, n_r)
+        n_chunks = -(-n_r // chunk)
+        eta_p = jnp.pad(eta, (0, n_chunks * chunk - n_r)).reshape(n_chunks, chunk)
+        spectra = jax.lax.map(columns, eta_p)  # (n_chunks, n_pulses, chunk)
+        spectra = jnp.moveaxis(spectra, 0, 1).reshape(n_pulses, n_chunks * chunk)[:, :n_r]
+        return jnp.fft.ifft(spectra, axis=1)[:, :n_range].astype(dtype)
