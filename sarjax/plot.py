@@ -1,4 +1,6 @@
-"""Figures (matplotlib, Agg-safe): raw amplitude, focused image in dB, IRF cuts."""
+"""Figures (matplotlib, Agg-safe): raw amplitude and phase, focused image in dB (peak-
+normalised, −50…0 dB, grey), IRF cuts, seed-style cut comparisons of two simulators,
+motion fits against their truth."""
 
 from __future__ import annotations
 
@@ -122,6 +124,97 @@ def motion_profile(azimuth, motion, path=None):
     axes[1].set_xlabel("azimuth x' [m]")
     for ax in axes:
         ax.grid(alpha=0.3)
+    return _finish(fig, path)
+
+
+def raw_amplitude_phase(raw, path=None, *, title="Raw data"):
+    """|h(x', r')| and arg h(x', r') of :class:`~sarjax.RawData` side by side (grey,
+    phase in [−π, π]); save to ``path`` when given."""
+    plt = _plt()
+    data = np.asarray(raw.data)
+    az, rg = np.asarray(raw.azimuth), np.asarray(raw.range)
+    extent = [rg[0], rg[-1], az[0], az[-1]]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    im0 = axes[0].imshow(np.abs(data), aspect="auto", origin="lower", cmap="gray",
+                         extent=extent)
+    im1 = axes[1].imshow(np.angle(data), aspect="auto", origin="lower", cmap="gray",
+                         extent=extent, vmin=-np.pi, vmax=np.pi, interpolation="nearest")
+    fig.colorbar(im0, ax=axes[0], label="amplitude")
+    fig.colorbar(im1, ax=axes[1], label="phase [rad]")
+    axes[0].set_ylabel("azimuth x' [m]")
+    for ax, what in zip(axes, ("amplitude", "phase"), strict=True):
+        ax.set_xlabel("range r' [m]")
+        ax.set_title(f"{title}: {what}")
+    return _finish(fig, path)
+
+
+def compare_cuts(first, second, labels=("reference", "test"), *, azimuth=None, range=None,
+                 path=None, title=""):
+    """Seed-style comparison of two simulators: amplitude and phase of raw data along an
+    azimuth cut (fixed r') and a range cut (fixed x'), with the phase difference.
+
+    Args:
+        first, second: :class:`~sarjax.RawData` on the same grid (e.g. ``time_domain``
+            and ``small_deviation``).
+        labels: legend labels.
+        azimuth: x' of the range cut [m] (default: the middle pulse).
+        range: r' of the azimuth cut [m] (default: the brightest range sample).
+    """
+    plt = _plt()
+    a, b = np.asarray(first.data), np.asarray(second.data)
+    if a.shape != b.shape:
+        raise ValueError(f"raw data shapes differ: {a.shape} and {b.shape}")
+    az, rg = np.asarray(first.azimuth), np.asarray(first.range)
+    i = a.shape[0] // 2 if azimuth is None else int(np.argmin(np.abs(az - azimuth)))
+    j = (int(np.argmax(np.sum(np.abs(a) ** 2, axis=0))) if range is None
+         else int(np.argmin(np.abs(rg - range))))
+    fig, axes = plt.subplots(3, 2, figsize=(11, 7.5), sharex="col")
+    for col, (axis, ca, cb, name, where) in enumerate((
+            (az, a[:, j], b[:, j], "azimuth x' [m]", f"r' = {rg[j]:.1f} m"),
+            (rg, a[i, :], b[i, :], "range r' [m]", f"x' = {az[i]:.2f} m"))):
+        axes[0, col].plot(axis, np.abs(ca), label=labels[0])
+        axes[0, col].plot(axis, np.abs(cb), "--", label=labels[1])
+        axes[0, col].set_title(f"{'azimuth' if col == 0 else 'range'} cut at {where} {title}")
+        axes[1, col].plot(axis, np.angle(ca), label=labels[0])
+        axes[1, col].plot(axis, np.angle(cb), "--", label=labels[1])
+        weight = np.abs(ca) > 1e-3 * max(np.abs(ca).max(), 1e-300)
+        diff = np.where(weight, np.angle(cb * np.conj(ca)), np.nan)
+        axes[2, col].plot(axis, diff, color="k")
+        axes[2, col].set_xlabel(name)
+    axes[0, 0].set_ylabel("amplitude")
+    axes[1, 0].set_ylabel("phase [rad]")
+    axes[2, 0].set_ylabel(f"phase {labels[1]} − {labels[0]} [rad]")
+    for ax in axes.ravel():
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend()
+    return _finish(fig, path)
+
+
+def motion_fit(azimuth, fitted, truth=None, path=None, *, title="Motion fit"):
+    """Fitted trajectory deviations [cm] and pointing jitter [mrad] with their truth.
+
+    Args:
+        azimuth: (azimuth,) pulse positions x' [m].
+        fitted: the estimated :class:`~sarjax.Motion`.
+        truth: the true :class:`~sarjax.Motion` (optional).
+    """
+    plt = _plt()
+    azimuth = np.asarray(azimuth)
+    n = len(azimuth)
+    fit = [np.asarray(v) for v in fitted.resolve(n)]
+    ref = None if truth is None else [np.asarray(v) for v in truth.resolve(n)]
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True)
+    for ax, k, name, scale, unit in ((axes[0], 0, "horizontal Δy", 100, "cm"),
+                                     (axes[1], 1, "vertical Δz", 100, "cm"),
+                                     (axes[2], 2, "pointing δ_az", 1e3, "mrad")):
+        if ref is not None:
+            ax.plot(azimuth, scale * ref[k], color="0.6", lw=3, label="truth")
+        ax.plot(azimuth, scale * fit[k], color="k", lw=1, label="fit")
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(alpha=0.3)
+    axes[0].legend()
+    axes[0].set_title(title)
+    axes[2].set_xlabel("azimuth x' [m]")
     return _finish(fig, path)
 
 

@@ -1,0 +1,159 @@
+"""The ``sarjax`` command line: help everywhere, simulate → focus → metrics from a shell
+giving the Python API's numbers, configs with overrides, safe writes, one-line errors."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import sarjax as sj
+import sarjax.cli
+from sarjax import io
+
+CONFIG = """
+preset = "airborne"
+[radar]
+num_pulses = 257
+[scene]
+azimuth = [0.0, 5.0]
+range = [5100.0, 5200.0]
+reflectivity = [1.0, 0.5]
+reflectivity_phase = [0.0, 1.0]
+[motion]
+deviation_rms = 0.01
+max_cycles = 1.0
+seed = 7
+jitter = 0.05
+[simulate]
+method = "time_domain"
+"""
+
+COMMANDS = ("demo", "simulate", "focus", "metrics", "fit", "check", "export", "plot")
+
+
+def _shell(*args, cwd):
+    """Run ``python -m sarjax.cli ARGS`` as a separate process (a shell user's view)."""
+    return subprocess.run([sys.executable, "-m", "sarjax.cli", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("command", (None, *COMMANDS))
+def test_help_on_every_command(command, capsys):
+    args = ["--help"] if command is None else [command, "--help"]
+    assert sarjax.cli.main(args) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("Usage: sarjax")
+    if command is None:
+        for name in COMMANDS:
+            assert name in out
+
+
+def test_shell_simulate_focus_metrics_match_the_python_api(tmp_path):
+    (tmp_path / "run.toml").write_text(CONFIG)
+    for args in (["simulate", "run.toml", "-o", "raw.nc"],
+                 ["focus", "raw.nc", "-o", "image.nc"]):
+        done = _shell(*args, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    done = _shell("metrics", "image.nc", "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    shell = json.loads(done.stdout)
+
+    # the same run through the Python API
+    radar = sj.presets.airborne_xband(num_pulses=257)
+    scene = sj.PointTargets(azimuth=[0.0, 5.0], range=[5100.0, 5200.0],
+                            reflectivity=[1.0, 0.5 * np.exp(1j)])
+    x = (np.arange(257) - 128) * float(radar.azimuth_spacing)
+    footprint = float(radar.footprint(radar.reference_range))
+    motion = sj.Motion(
+        horizontal=sj.smooth_deviation(x, key=7, rms=0.01, max_cycles=1.0, aperture=footprint),
+        vertical=sj.smooth_deviation(x, key=8, rms=0.01, max_cycles=1.0, aperture=footprint),
+        pointing=sj.seed_pointing_jitter(radar, x, amplitude_fraction=0.05))
+    raw = sj.simulate(radar, scene, motion)
+    image = sj.focus(radar, raw, motion=motion)
+    stored = io.load(tmp_path / "raw.nc")
+    np.testing.assert_array_equal(np.asarray(stored.product.data), np.asarray(raw.data))
+    assert len(shell) == 2
+    for row, (xt, rt) in zip(shell, [(0.0, 5100.0), (5.0, 5200.0)], strict=True):
+        m = sj.point_target_metrics(image, azimuth=xt, range=rt, half_window=64)
+        for key in ("irw_azimuth", "irw_range", "pslr_azimuth", "pslr_range",
+                    "islr_azimuth", "islr_range", "peak_azimuth", "peak_range", "peak_db"):
+            assert row[key] == pytest.approx(getattr(m, key), rel=1e-9, abs=1e-9), key
+
+
+def test_config_overrides_presets_and_reproducible_file(tmp_path, capsys):
+    (tmp_path / "run.toml").write_text(CONFIG)
+    out = tmp_path / "raw.nc"
+    code = sarjax.cli.main(["simulate", str(tmp_path / "run.toml"), "-o", str(out),
+                            "--set", "radar.num_pulses=129", "--set", "simulate.method='auto'",
+                            "--set", "motion.jitter=0"])
+    assert code == 0, capsys.readouterr().err
+    run = io.load(out)
+    assert run.product.shape == (129, 830) and run.radar.num_pulses == 129
+    assert run.motion.pointing is None and run.motion.horizontal is not None
+    assert run.attrs["simulate_method"] == run.product.method != "auto"
+    again = run.simulate()  # one file reproduces its run
+    np.testing.assert_array_equal(np.asarray(again.data), np.asarray(run.product.data))
+
+
+def test_bad_input_gives_one_line_and_status_2(tmp_path, capsys):
+    (tmp_path / "run.toml").write_text(CONFIG)
+    (tmp_path / "bad.toml").write_text(CONFIG + "\n[wobble]\nx = 1\n")
+    cases = [
+        (["simulate", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "a.nc")],
+         "does not exist"),
+        (["simulate", str(tmp_path / "bad.toml"), "-o", str(tmp_path / "a.nc")], "wobble"),
+        (["simulate", str(tmp_path / "run.toml"), "-o", str(tmp_path / "a.nc"),
+          "--set", "radar.prf=-1"], "prf"),
+        (["simulate", str(tmp_path / "run.toml"), "-o", str(tmp_path / "a.nc"),
+          "--set", "radar.wobble=1"], "wobble"),
+        (["focus", str(tmp_path / "run.toml"), "-o", str(tmp_path / "b.nc")], "cannot read"),
+        (["export", str(tmp_path / "x.nc"), "-o", "y", "--format", "sicd"], "sicd"),
+        (["frobnicate"], "frobnicate"),
+    ]
+    for args, needle in cases:
+        assert sarjax.cli.main(args) == 2, args
+        err = capsys.readouterr().err
+        assert err.startswith("sarjax: error:") and err.count("\n") == 1, err
+        assert needle in err, (needle, err)
+    assert not (tmp_path / "a.nc").exists()
+
+
+def test_no_overwrite_without_force(tmp_path, capsys):
+    (tmp_path / "run.toml").write_text(CONFIG)
+    out = tmp_path / "raw.nc"
+    args = ["simulate", str(tmp_path / "run.toml"), "-o", str(out), "--set",
+            "radar.num_pulses=65"]
+    assert sarjax.cli.main(args) == 0
+    before = out.stat().st_mtime_ns
+    assert sarjax.cli.main(args) == 2
+    assert "exists" in capsys.readouterr().err
+    assert out.stat().st_mtime_ns == before
+    assert sarjax.cli.main([*args, "--force"]) == 0
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no debris
+
+
+def test_export_and_plot_commands(tmp_path, capsys):
+    import sarkit.cphd as skcphd
+
+    (tmp_path / "run.toml").write_text(CONFIG)
+    raw, cphd, png = tmp_path / "raw.nc", tmp_path / "raw.cphd", tmp_path / "raw.png"
+    assert sarjax.cli.main(["simulate", str(tmp_path / "run.toml"), "-o", str(raw)]) == 0
+    assert sarjax.cli.main(["export", str(raw), "-o", str(cphd), "--format", "cphd",
+                            "--track", "nominal"]) == 0
+    with open(cphd, "rb") as f, skcphd.Reader(f) as reader:
+        signal, pvp = reader.read_channel("1")
+    assert signal.shape[0] == 257 and np.all(np.isfinite(pvp["TxPos"]))
+    assert sarjax.cli.main(["plot", str(raw), "-o", str(png)]) == 0
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_fit_reports_when_unavailable(tmp_path, capsys, monkeypatch):
+    (tmp_path / "run.toml").write_text(CONFIG)
+    raw = tmp_path / "raw.nc"
+    assert sarjax.cli.main(["simulate", str(tmp_path / "run.toml"), "-o", str(raw),
+                            "--set", "radar.num_pulses=65"]) == 0
+    monkeypatch.setitem(sys.modules, "sarjax.inverse", None)  # as if not installed
+    assert sarjax.cli.main(["fit", str(raw), "-o", str(tmp_path / "fit.nc")]) == 2
+    assert "not available" in capsys.readouterr().err
