@@ -34,8 +34,8 @@ def require(module: str, extra: str = "io"):
 @contextlib.contextmanager
 def quiet_sarkit():
     """sarkit 1.8 reads its schema tables with the deprecated
-    ``importlib.resources.read_text`` / ``open_text``: silence that warning (tests turn warnings into
-    errors)."""
+    ``importlib.resources.read_text`` / ``open_text``: silence that warning (tests turn
+    warnings into errors)."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r"(read|open)_text is deprecated",
                                 category=DeprecationWarning)
