@@ -180,3 +180,64 @@ def atomic_write(path, write, *, overwrite: bool = False):
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def scene_area(radar, raw, geo: Collection, reference: GeoReference,
+               time_offset: float = 0.0) -> dict:
+    """The image area (where a full integration time lies inside the track), its corners,
+    the IAC axes, the dwell and centre-of-dwell polynomials and an image grid.
+
+    IAC: uIAY horizontal, away from the track; uIAX = uIAY × up (along the track for
+    side L, against it for side R); origin at the IARP. Dwell time: the integration time
+    λr/(Lv) (a cubic in IAC y), or half the track where the track is shorter than two
+    integration times. COD time: the time the pulse abeam the point is at its SRP,
+    ``time_offset`` + x / v + r₀ / c from the middle of the track.
+    """
+    wgs84 = require("sarkit.wgs84")
+    height = float(radar.height)
+    velocity = float(radar.velocity)
+    range_axis = np.asarray(raw.range, float)
+    near, far = range_axis[0], range_axis[-1]
+    if far <= height:
+        raise ValueError(f"far range {far} m does not exceed radar.height={height} m: "
+                         "the range window sees no ground")
+    ground_near = max(near, height)  # samples before the nadir echo see no ground
+    y_near = float(np.sqrt((ground_near - height) * (ground_near + height))) - (
+        geo.ground_reference)
+    y_far = float(np.sqrt((far - height) * (far + height))) - geo.ground_reference
+    track_time = float(geo.tx_time[-1])
+    y_fit = np.linspace(y_near, y_far, 33)
+    slant = np.sqrt((geo.ground_reference + y_fit) ** 2 + height**2)
+    dwell = float(radar.wavelength) * slant / (float(radar.antenna_length) * velocity)
+    if dwell.max() <= 0.5 * track_time:
+        dwell_poly = np.polynomial.polynomial.polyfit(y_fit, dwell, 3)
+        dwell_max = float(np.polynomial.polynomial.polyval(y_fit, dwell_poly).max())
+    else:
+        dwell_poly = np.array([0.5 * track_time])
+        dwell_max = 0.5 * track_time
+    half_x = velocity * (0.5 * track_time - 0.5 * dwell_max - 2.0 / float(radar.prf))
+    sign = 1.0 if reference.side_of_track == "L" else -1.0
+    x1, x2, y1, y2 = -half_x, half_x, y_near, y_far
+    iac_corners = np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]])
+    local_corners = np.stack([
+        geo.frame.anchor[0] + sign * iac_corners[:, 0],
+        geo.frame.anchor[1] + iac_corners[:, 1], np.zeros(4)], axis=-1)
+    llh_corners = wgs84.cartesian_to_geodetic(geo.frame.to_ecf(local_corners))
+    lon, lat = llh_corners[:, 1], llh_corners[:, 0]
+    if np.sum(lon * np.roll(lat, -1) - np.roll(lon, -1) * lat) > 0:  # counter-clockwise
+        llh_corners = llh_corners[::-1]
+    u_iay = geo.frame.axes[1]
+    t_mid = time_offset + 0.5 * track_time + float(radar.reference_range) / SPEED_OF_LIGHT
+    line_spacing = float(radar.azimuth_spacing)
+    sample_spacing = float(radar.range_spacing) * float(radar.reference_range) / (
+        geo.ground_reference)
+    return dict(
+        x1=x1, x2=x2, y1=y1, y2=y2, line_spacing=line_spacing, sample_spacing=sample_spacing,
+        num_lines=max(int(round((x2 - x1) / line_spacing)), 1),
+        num_samples=max(int(round((y2 - y1) / sample_spacing)), 1),
+        iarp_ecf=geo.frame.origin, iarp_llh=wgs84.cartesian_to_geodetic(geo.frame.origin),
+        u_iax=np.cross(u_iay, geo.frame.up), u_iay=u_iay, llh_corners=llh_corners,
+        cod_poly=np.array([[t_mid], [sign / velocity]]),
+        dwell_poly_2d=np.asarray(dwell_poly)[None, :],
+        polygon=np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]]),
+    )

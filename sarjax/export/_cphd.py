@@ -17,6 +17,7 @@ from ._common import (
     quiet_sarkit,
     require,
     scalar,
+    scene_area,
     two_way_delay,
 )
 from ._frame import GeoReference
@@ -80,11 +81,6 @@ def phase_history(radar, raw, srp_range, *, pulse_chunk: int = 256):
     return out, f0 + f_r[0], fs / n_fft
 
 
-def _poly_fit_1d(x, y, degree):
-    coef = np.polynomial.polynomial.polyfit(x, y, degree)
-    return coef
-
-
 def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
             reference: GeoReference | None = None, core_name: str = "sarjax",
             classification: str = "UNCLASSIFIED", release_info: str = "UNRESTRICTED",
@@ -131,7 +127,6 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
     """
     lxml_etree = require("lxml.etree")
     skcphd = require("sarkit.cphd")
-    wgs84 = require("sarkit.wgs84")
     reference = GeoReference() if reference is None else reference
     check_grid(radar, raw)
     geo = collection(radar, raw, motion, track, reference)
@@ -141,16 +136,8 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
     bandwidth = float(radar.bandwidth)
     fs = float(radar.sampling_rate)
     tau = float(radar.chirp_duration)
-    prf = float(radar.prf)
-    velocity = float(radar.velocity)
-    height = float(radar.height)
-    wavelength = SPEED_OF_LIGHT / f0
-    antenna_length = float(radar.antenna_length)
     range_axis = np.asarray(raw.range, float)
     near, far = range_axis[0], range_axis[-1]
-    if far <= height:
-        raise ValueError(f"far range {far} m does not exceed radar.height={height} m: "
-                         "the range window sees no ground")
     half_chirp = SPEED_OF_LIGHT * tau / 4
 
     # ---- PVPs ----------------------------------------------------------------------
@@ -174,50 +161,8 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
     pvp["SC0"] = sc0
     pvp["SCSS"] = scss
 
-    # ---- image area: where a full integration time lies inside the track -------------
-    ground_near = max(near, height)  # samples before the nadir echo see no ground
-    y_near = math.sqrt((ground_near - height) * (ground_near + height)) - geo.ground_reference
-    y_far = math.sqrt((far - height) * (far + height)) - geo.ground_reference
-    track_time = geo.tx_time[-1]
-    y_fit = np.linspace(y_near, y_far, 33)
-    slant = np.sqrt((geo.ground_reference + y_fit) ** 2 + height**2)
-    dwell = wavelength * slant / (antenna_length * velocity)
-    if dwell.max() <= 0.5 * track_time:
-        dwell_poly = _poly_fit_1d(y_fit, dwell, 3)
-        dwell_max = float(np.polynomial.polynomial.polyval(y_fit, dwell_poly).max())
-    else:  # a track shorter than two integration times: half the track
-        dwell_poly = np.array([0.5 * track_time])
-        dwell_max = 0.5 * track_time
-    margin = 2.0 / prf
-    half_x = velocity * (0.5 * track_time - 0.5 * dwell_max - margin)
-    # IAC: uIAY away from the track, uIAX = uIAY × up (along the track for side L, against
-    # it for side R); IAC x = sign · (local x − x_mid)
-    sign = 1.0 if reference.side_of_track == "L" else -1.0
-    x1, x2, y1, y2 = -half_x, half_x, y_near, y_far
-    iac_corners = np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]])
-    local_corners = np.stack([
-        geo.frame.anchor[0] + sign * iac_corners[:, 0],
-        geo.frame.anchor[1] + iac_corners[:, 1], np.zeros(4)], axis=-1)
-    llh_corners = wgs84.cartesian_to_geodetic(geo.frame.to_ecf(local_corners))
-    if _signed_area(llh_corners[:, 1], llh_corners[:, 0]) > 0:  # counter-clockwise
-        llh_corners = llh_corners[::-1]
-    iarp_ecf = geo.frame.origin
-    iarp_llh = wgs84.cartesian_to_geodetic(iarp_ecf)
-    u_iay = geo.frame.axes[1]
-    u_iax = np.cross(u_iay, geo.frame.up)
-    t_mid = 0.5 * track_time + float(radar.reference_range) / SPEED_OF_LIGHT
-    cod_poly = np.array([[t_mid], [sign / velocity]])  # COD time: x(IAC) / v from mid
-    dwell_poly_2d = np.asarray(dwell_poly)[None, :]
-    line_spacing = float(radar.azimuth_spacing)
-    sample_spacing = float(radar.range_spacing) * float(radar.reference_range) / (
-        geo.ground_reference)
-    num_lines = max(int(round((x2 - x1) / line_spacing)), 1)
-    num_samples = max(int(round((y2 - y1) / sample_spacing)), 1)
-    area = dict(f0=f0, bandwidth=bandwidth, tau=tau, fs=fs, x1=x1, x2=x2, y1=y1, y2=y2,
-                line_spacing=line_spacing, sample_spacing=sample_spacing,
-                num_lines=num_lines, num_samples=num_samples, iarp_ecf=iarp_ecf,
-                iarp_llh=iarp_llh, u_iax=u_iax, u_iay=u_iay, llh_corners=llh_corners,
-                cod_poly=cod_poly, dwell_poly_2d=dwell_poly_2d)
+    area = scene_area(radar, raw, geo, reference)
+    area.update(f0=f0, bandwidth=bandwidth, tau=tau, fs=fs)
 
     # ---- XML ---------------------------------------------------------------------------
     with quiet_sarkit():
@@ -264,7 +209,7 @@ def _metadata(lxml_etree, skcphd, reference, radar, raw, track, attrs, core_name
         "FxBand": {"FxMin": float(pvp["FX1"].min()), "FxMax": float(pvp["FX2"].max())},
         "TOASwath": {"TOAMin": float(pvp["TOA1"].min()), "TOAMax": float(pvp["TOA2"].max())},
     }
-    polygon = np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]])
+    polygon = v["polygon"]
     xml["SceneCoordinates"] = {
         "EarthModel": "WGS_84",
         "IARP": {"ECF": v["iarp_ecf"], "LLH": v["iarp_llh"]},
@@ -346,7 +291,3 @@ def _parameters(etree, params: dict):
         elem.text = str(value)
         out.append(elem)
     return out
-
-
-def _signed_area(x, y):
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
