@@ -145,6 +145,10 @@ def test_export_and_plot_commands(tmp_path, capsys):
     with open(cphd, "rb") as f, skcphd.Reader(f) as reader:
         signal, pvp = reader.read_channel("1")
     assert signal.shape[0] == 257 and np.all(np.isfinite(pvp["TxPos"]))
+    crsd = tmp_path / "raw.crsd"
+    assert sarjax.cli.main(["export", str(raw), "-o", str(crsd), "--format", "crsd",
+                            "--side", "L", "--heading", "30"]) == 0
+    assert crsd.stat().st_size > 257 * 830 * 8  # the raw samples, complex64
     assert sarjax.cli.main(["plot", str(raw), "-o", str(png)]) == 0
     assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
 

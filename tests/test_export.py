@@ -10,7 +10,7 @@ import pytest
 
 import sarjax as sj
 from sarjax.demo import TARGET_RANGES, demo_motion
-from sarjax.export import GeoReference, to_cphd
+from sarjax.export import GeoReference, to_cphd, to_crsd
 from sarjax.export._common import collection
 
 HEIGHT = 4000.0
@@ -177,3 +177,39 @@ def test_cphd_refuses_overwrite_and_bad_input(demo_case, cphd_file):
     with pytest.raises(ValueError, match="spacing"):
         to_cphd(cphd_file.with_suffix(".y"), radar.replace(prf=300.0), raw, motion)
     assert not cphd_file.with_suffix(".x").exists()
+
+
+def test_crsd_passes_checker_and_reads_back_identically(demo_case, tmp_path):
+    import sarkit.crsd as skcrsd
+    import sarkit.verification as skver
+
+    radar, _, motion, raw = demo_case
+    path = to_crsd(tmp_path / "demo.crsd", radar, raw, motion)
+    con = _consistency(skver.CrsdConsistency, path)
+    assert con.failures() == {}
+    assert len(con.passes()) >= 80
+    exe = shutil.which("crsdcheck")
+    if exe is not None:
+        assert subprocess.run([exe, str(path), "--thorough"]).returncode == 0
+    with open(path, "rb") as f, skcrsd.Reader(f) as reader:
+        signal, pvp = reader.read_channel("rx")
+        ppp = reader.read_ppps("tx")
+    np.testing.assert_array_equal(signal, np.asarray(raw.data).astype(np.complex64))
+    # timing and phase references (see to_crsd): sample k of pulse p at
+    # RcvStart + k / f_s = t_p + 2 r'_k / c with t_p the chirp centre = TxTime + τ/2
+    c = sj.constants.SPEED_OF_LIGHT
+    tau, fs = float(radar.chirp_duration), float(radar.sampling_rate)
+    tx_time = ppp["TxTime"]["Int"] + ppp["TxTime"]["Frac"]
+    rcv_start = pvp["RcvStart"]["Int"] + pvp["RcvStart"]["Frac"]
+    np.testing.assert_allclose(tx_time, np.arange(radar.num_pulses) / float(radar.prf),
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rcv_start - (tx_time + tau / 2),
+                               2 * float(raw.range[0]) / c, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(2 * np.asarray(raw.range[1:2] - raw.range[0]) / c, 1 / fs,
+                               rtol=1e-12)
+    ref_phase = pvp["RefPhi0"]["Int"] + pvp["RefPhi0"]["Frac"]
+    np.testing.assert_allclose(ref_phase, 2 * float(radar.carrier_frequency)
+                               * float(raw.range[0]) / c, rtol=1e-15)
+    # the pointing error steers the electrical boresight
+    np.testing.assert_allclose(pvp["RcvEB"][:, 0], -np.sin(np.asarray(motion.pointing)),
+                               atol=1e-15)

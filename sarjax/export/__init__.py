@@ -7,7 +7,8 @@ of :func:`to_cphd` and :func:`to_crsd`.
 """
 
 from ._cphd import to_cphd as to_cphd
+from ._crsd import to_crsd as to_crsd
 from ._frame import GeoReference as GeoReference
 from ._frame import LocalFrame as LocalFrame
 
-__all__ = ["GeoReference", "LocalFrame", "to_cphd"]
+__all__ = ["GeoReference", "LocalFrame", "to_cphd", "to_crsd"]
