@@ -65,16 +65,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..constants import SPEED_OF_LIGHT
-from ..processing._interpolation import next_fast_len
-from ..scene import PointTargets, ReflectivityGrid
+from ..processing._interpolation import next_fast_len, sinc_interpolate
+from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
-from ._fourier import (
-    _grid_azimuth_fft,
-    check_grid_scene,
-    chirp_spectrum,
-    grid_dtft,
-    synthesize_grid,
-)
+from ._fourier import check_grid_scene, chirp_spectrum
 
 _TWO_PI = 2 * jnp.pi
 
@@ -85,6 +79,35 @@ def nearest_alias(xi, k, squint, dx):
     across a wide band at large squint by more than the PRF band)."""
     period = _TWO_PI / dx
     return xi + period * jnp.round((k * jnp.sin(squint) - xi) / period)
+
+
+def _grid_spectra(values, offset, n_x):
+    """Azimuth DFT of grid rows aligned with the pulses, then the 2×-oversampled DFT over
+    range lines about the middle line (the inverse Stolt sum of :func:`_grid_sum`).
+
+    Args:
+        values: (n_lines, n_az) modulated reflectivity, one row per range line.
+        offset: (x_first − x0)/Δx, the first grid row in pulse spacings from the DFT origin.
+        n_x: azimuth DFT length.
+
+    Returns:
+        (n_x, p) ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``.
+    """
+    spectrum = jnp.fft.fft(values, n=n_x, axis=1)
+    spectrum = spectrum * jnp.exp(-1j * _TWO_PI * jnp.fft.fftfreq(n_x) * offset)[None, :]
+    n_lines = values.shape[0]
+    p = next_fast_len(2 * n_lines)
+    padded = jnp.roll(jnp.pad(spectrum, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
+    return jnp.fft.fft(padded.T, axis=1)
+
+
+def _grid_sum(dtft, ranges, kappa, taps):
+    """``Σ_j F_j e^{−jκ (r_j − r_c)} = D(κ Δr)`` by windowed-sinc interpolation of the
+    periodic DTFT; returns it and r_c (the middle line's range)."""
+    p = dtft.shape[1]
+    step = ranges[1] - ranges[0]
+    summed = sinc_interpolate(dtft, kappa * step * (p / _TWO_PI), taps=taps, periodic=True)
+    return summed, ranges[ranges.shape[0] // 2]
 
 
 def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, chunk=16):
@@ -243,15 +266,13 @@ class HighSpeed(AbstractSimulator):
         for v_r, v_a, index in self.groups:
             if gridded:
                 # e^{−jξ_d (x_i − x0)} first: the FFT then supplies the offsets from ξ_d
-                values = (scene.reflectivity * jnp.exp(
-                    -1j * xi_c * (scene.azimuth - x0))[:, None]).T  # (n_lines, n_az)
-                spectrum = _grid_azimuth_fft(values, scene.azimuth, x0, dx, n_x)
                 ranges = scene.range
-                lines = spectrum * (jnp.sqrt(ranges) * jnp.exp(
-                    -1j * jnp.mod(k0 * ranges, _TWO_PI)))[:, None]
+                values = (scene.reflectivity * jnp.exp(-1j * xi_c * (scene.azimuth - x0))[:, None]
+                          * (jnp.sqrt(ranges) * jnp.exp(-1j * jnp.mod(k0 * ranges, _TWO_PI)))[None, :]
+                          ).T  # (n_lines, n_az)
                 # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
                 offset = (scene.azimuth[0] - x0) / dx
-                groups.append((v_r, v_a, grid_dtft(lines), ranges, offset))
+                groups.append((v_r, v_a, _grid_spectra(values, offset, n_x), ranges, offset))
             else:
                 idx = jnp.asarray(index)
                 ranges = scene.range[idx]
@@ -271,7 +292,7 @@ class HighSpeed(AbstractSimulator):
                     kappa, amplitude, u = spectrum_terms(
                         radar, xi_cells, k, v_r, v_a, self.stop_and_go)
                     if gridded:
-                        summed, r_ref = synthesize_grid(data, ranges, kappa, taps=self.taps)
+                        summed, r_ref = _grid_sum(data, ranges, kappa, self.taps)
                         alias = jnp.round((xi_cells - xi[:, None]) * dx / _TWO_PI)
                         summed = summed * jnp.exp(-1j * _TWO_PI * alias * where)
                     else:
