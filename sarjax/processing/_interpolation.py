@@ -5,6 +5,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from .._phasor import sine
+
 
 def next_fast_len(n: int) -> int:
     """Smallest 2^a 3^b 5^c ≥ n (a fast FFT length)."""
@@ -49,7 +51,7 @@ def sinc_interpolate(values, positions, *, taps: int = 12, periodic: bool = Fals
     offsets = jnp.arange(-half + 1, half + 1).reshape((1,) * positions.ndim + (taps,))
     distance = frac[..., None] - offsets  # (..., m, taps)
     sign = jnp.where(offsets % 2 == 0, 1.0, -1.0)
-    sin_term = jnp.sin(jnp.pi * frac)[..., None] * sign
+    sin_term = sine(jnp.pi * frac)[..., None] * sign
     tiny = jnp.abs(distance) < 1e-12
     sinc = jnp.where(tiny, 1.0, sin_term / (jnp.pi * jnp.where(tiny, 1.0, distance)))
     window = jnp.clip(1.0 - (distance / half) ** 2, 0.0, 1.0) ** 3

@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
+from .._phasor import unit_phasor
 from ..processing._interpolation import next_fast_len, sinc_interpolate
 from ..scene import PointTargets, ReflectivityGrid
 from ._base import AbstractSimulator
@@ -98,7 +99,7 @@ def chirp_spectrum(radar, eta):
     s1, c1 = jax.scipy.special.fresnel(t1)
     s2, c2 = jax.scipy.special.fresnel(t2)
     return (
-        jnp.exp(1j * eta**2 / (4 * b))
+        unit_phasor(eta**2 / (4 * b))
         * jnp.sqrt(jnp.pi / (2 * b))
         * ((c2 - c1) - 1j * (s2 - s1))
     )
@@ -109,7 +110,7 @@ def stationary_amplitude(radar, xi, slant_range):
     k0 = radar.wavenumber
     kz2 = k0**2 - xi**2
     mag = jnp.sqrt(2 * jnp.pi * k0**2 * slant_range / kz2**1.5) / radar.azimuth_spacing
-    return mag * jnp.exp(-1j * jnp.pi / 4)
+    return mag * unit_phasor(-jnp.pi / 4)
 
 
 def stationary_pattern_argument(radar, xi):
@@ -140,52 +141,119 @@ def _kappa_b(radar, xi, eta):
 
 
 def synthesize_direct(lines, line_ranges, kappa, chunk=16):
-    """Direct sum over range lines.
+    """Direct sum over range lines, relative to the first line's range.
 
     Args:
-        lines: (n_x, n_lines) F_j(ξ).
+        lines: (n_lines, n_x) F_j(ξ), one row per range line.
         line_ranges: (n_lines,) r_j [m].
-        kappa: (n_x, n_r) κ(ξ, η) [rad/m].
+        kappa: (n_x, n_c) κ(ξ, η) [rad/m].
 
     Returns:
-        (n_x, n_r) Σ_j F_j(ξ) e^{−jκ r_j}.
+        ((n_x, n_c) Σ_j F_j(ξ) e^{−jκ (r_j − r_ref)}, r_ref = r_0 [m]); the caller applies
+        ``e^{−jκ r_ref}`` (together with the other per-(ξ, η) factors, in one pass).
     """
-    n_lines = lines.shape[1]
+    n_lines = lines.shape[0]
     chunk = min(chunk, n_lines)
     n_chunks = -(-n_lines // chunk)
     pad = n_chunks * chunk - n_lines
-    lines_p = jnp.pad(lines, ((0, 0), (0, pad))).T.reshape(n_chunks, chunk, -1)
+    lines_p = jnp.pad(lines, ((0, pad), (0, 0))).reshape(n_chunks, chunk, -1)
     ranges_p = jnp.pad(line_ranges, (0, pad), constant_values=line_ranges[0]).reshape(
         n_chunks, chunk
     )
-    r_c = line_ranges[0]
+    r_ref = line_ranges[0]
 
     def body(acc, block):
         f, r = block  # (chunk, n_x), (chunk,)
-        phase = kappa[None, :, :] * (r - r_c)[:, None, None]
-        return acc + jnp.sum(f[:, :, None] * jnp.exp(-1j * phase), axis=0), None
+        phase = kappa[None, :, :] * (r - r_ref)[:, None, None]
+        return acc + jnp.sum(f[:, :, None] * unit_phasor(-phase), axis=0), None
 
     init = jnp.zeros(kappa.shape, lines.dtype)
     out, _ = jax.lax.scan(body, init, (lines_p, ranges_p))
-    return out * jnp.exp(-1j * kappa * r_c)
+    return out, r_ref
 
 
-def synthesize_grid(lines, first_range, range_step, kappa, taps=8):
-    """Inverse Stolt mapping over a uniform range grid r_j = r₀ + j Δr.
+def grid_dtft(lines):
+    """(n_x, p) DTFT over a uniform grid of range lines, about the middle line.
 
-    Σ_j F_j e^{−jκ r_j} = e^{−jκ r_c} D(κ Δr), ``D(ω) = Σ_j F_j e^{−jω(j − j_c)}`` the
-    2π-periodic DTFT about the middle line ``j_c`` (so its harmonics span ±n/2), sampled
-    by a 2×-oversampled FFT and interpolated with a windowed sinc.
+    ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``, ``p ≥ 2 n_lines`` (2×
+    oversampled, so that a short windowed sinc interpolates it; its harmonics span ±n/2).
+
+    Args:
+        lines: (n_lines, n_x) F_j(ξ).
     """
-    n_lines = lines.shape[1]
+    n_lines = lines.shape[0]
     p = next_fast_len(2 * n_lines)
-    centre = n_lines // 2
-    padded = jnp.roll(jnp.pad(lines, ((0, 0), (0, p - n_lines))), -centre, axis=1)
-    dtft = jnp.fft.fft(padded, axis=1)  # D(ω_k), ω_k = 2πk/p
-    dtft = jax.lax.optimization_barrier(dtft)
-    position = kappa * range_step * (p / (2 * jnp.pi))
-    out = sinc_interpolate(dtft, position, taps=taps, periodic=True)
-    return out * jnp.exp(-1j * kappa * (first_range + centre * range_step))
+    padded = jnp.roll(jnp.pad(lines, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
+    return jnp.fft.fft(padded.T, axis=1)
+
+
+def synthesize_grid(dtft, line_ranges, kappa, taps=8):
+    """Inverse Stolt mapping over a uniform range grid ``r_j = r_0 + j Δr``:
+    ``Σ_j F_j e^{−jκ r_j} = e^{−jκ r_c} D(κ Δr)``, D from :func:`grid_dtft` interpolated
+    with a windowed sinc at the non-uniform ``κ Δr``.
+
+    Returns:
+        ((n_x, n_c) D(ξ, κ Δr), r_c = range of the middle line [m]); the caller applies
+        ``e^{−jκ r_c}``.
+    """
+    p = dtft.shape[1]
+    centre = line_ranges.shape[0] // 2
+    step = line_ranges[1] - line_ranges[0]
+    position = kappa * step * (p / (2 * jnp.pi))
+    return sinc_interpolate(dtft, position, taps=taps, periodic=True), line_ranges[centre]
+
+
+def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *, pad,
+                      num_pulses, block, loops=2):
+    """Range synthesis, azimuth inverse transform and per-pulse assembly, a block of range
+    columns at a time.
+
+    For columns ``η`` (of ``eta``):
+    ``Σ_terms s(x')ⁿ IFFT_ξ[A_i(ξ, η) w(ξ)](x') · e^{−j(η + k₀) δr(x')}`` on the acquired
+    pulses (seed 000 eq. 22–24), with ``A_i`` made by ``produce`` for the block's columns.
+    A block of ``block`` columns (its synthesis, transpose, inverse FFTs and per-pulse
+    products) stays in cache; the blocks run in ``loops`` independent loops.
+
+    Args:
+        produce: (size,) η → list of (n_x, size) spectra A_i(ξ, η).
+        terms: list of (array index i, per-ξ weight (n_x,) or None, power n of s).
+        eta: (n_c,) range wavenumbers of the columns [rad/m].
+        delta_r: (num_pulses,) δr(x') [m], or None for no per-pulse motion.
+        scale_powers: {n: (num_pulses,) s(x')ⁿ} for the powers n ≥ 1 used by ``terms``.
+        wavenumber: k₀ = 4π/λ [rad/m].
+        pad: azimuth padding (pulses before the first acquired pulse).
+
+    Returns:
+        (n_c, num_pulses) in (η, x') layout.
+    """
+    n_c = eta.shape[0]
+
+    def run(eta_block):
+        block_arrays = [a.T for a in produce(eta_block)]
+        acc = 0.0
+        for index, weight, power in terms:
+            values = block_arrays[index]
+            if weight is not None:
+                values = values * weight[None, :]
+            along = jnp.fft.ifft(values, axis=1)[:, pad:pad + num_pulses]
+            acc = acc + (along if power == 0 else along * scale_powers[power][None, :])
+        if delta_r is not None:
+            acc = acc * unit_phasor(-(eta_block[:, None] + wavenumber) * delta_r[None, :])
+        return acc
+
+    n_blocks = n_c // block
+    per_loop = -(-n_blocks // max(loops, 1)) if n_blocks else 0
+    parts = []
+    start = 0
+    while start < n_blocks * block:
+        count = min(per_loop, n_blocks - start // block)
+        chunk = eta[start:start + count * block].reshape(count, block)
+        out = jax.lax.map(run, chunk) if count > 1 else run(chunk[0])[None]
+        parts.append(out.reshape(count * block, num_pulses))
+        start += count * block
+    if n_c - start:
+        parts.append(run(eta[start:]))
+    return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=0)
 
 
 # --------------------------------------------------------------------------------------
@@ -230,13 +298,24 @@ def prepare_scene(scene) -> _Scene:
     raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
 
 
-def _grid_azimuth_fft(values, scene_azimuth, x0, dx, n_x):
-    """(n_x, n_lines) Σ_i v[i, j] e^{−jξ(x_i − x0)} for grid rows aligned on the pulses."""
-    first = jnp.round((scene_azimuth[0] - x0) / dx)
-    frac = (scene_azimuth[0] - x0) / dx - first
-    spectrum = jnp.fft.fft(values, n=n_x, axis=0)  # rows at offsets 0 … n_az−1
+def _grid_azimuth_fft(values, n_x):
+    """(n_lines, n_x) Σ_i v[j, i] e^{−jξ i Δx}: the azimuth DFT of grid rows, cell i at
+    offset i from the grid's first row (see :func:`_grid_azimuth_ramp` for the rest).
+
+    Args:
+        values: (n_lines, n_az) reflectivity, one row per range line.
+    """
+    # written into a zero buffer (an in-place update): the scene factors are computed once
+    # per cell, not once per padded sample as a fused zero padding would
+    padded = jnp.zeros(values.shape[:1] + (n_x,), values.dtype)
+    padded = jax.lax.dynamic_update_slice(padded, values, (0, 0))
+    return jnp.fft.fft(padded, axis=1)
+
+
+def _grid_azimuth_ramp(scene_azimuth, x0, dx, n_x):
+    """(n_x,) e^{−jξ (x_0,grid − x0)}: the grid's first row relative to the DFT origin."""
     xi = 2 * jnp.pi * jnp.fft.fftfreq(n_x, dx)
-    return spectrum * jnp.exp(-1j * xi * (first + frac) * dx)[:, None]
+    return unit_phasor(-xi * (scene_azimuth[0] - x0))
 
 
 def _interp_motion(values, x_query, x0, dx):
@@ -245,6 +324,23 @@ def _interp_motion(values, x_query, x0, dx):
     i0 = jnp.clip(jnp.floor(position).astype(jnp.int32), 0, values.shape[0] - 2)
     t = position - i0
     return values[i0] * (1 - t) + values[i0 + 1] * t
+
+
+def alias_column_count(radar, n_r, tolerance):
+    """Columns per range alias (m = ±1) so that the alias energy left out is at most
+    ``tolerance`` of the main band's energy (eager, on concrete values).
+
+    The hard-edged chirp's spectrum extends past ±f_s/2 with a slowly decaying Fresnel
+    ripple; the alias m = +1 enters the sampled band from its lower edge (and m = −1 from
+    the upper edge), so its columns are counted from there.
+    """
+    eta = np.sort(np.asarray(range_wavenumbers(radar, n_r)))
+    main = np.abs(np.asarray(chirp_spectrum(radar, eta))) ** 2
+    alias = np.abs(np.asarray(chirp_spectrum(
+        radar, eta + 2 * np.pi / float(radar.range_spacing)))) ** 2
+    left_out = alias.sum() - np.cumsum(alias)  # energy beyond the first k + 1 columns
+    within = np.flatnonzero(left_out <= tolerance * main.sum())
+    return int(within[0] + 1) if alias.sum() > tolerance * main.sum() else 0
 
 
 # --------------------------------------------------------------------------------------
@@ -263,6 +359,12 @@ class _FourierBase(AbstractSimulator):
         taps: windowed-sinc length of the inverse Stolt interpolation (grids).
         range_aliases: range-spectrum aliases ±m summed (the chirp's spectrum extends past
             ±f_s/2 when f_s/Δf is close to 1; 1 matches the sampled model closely).
+        alias_tolerance: energy of the aliases' spectra left out, relative to the main
+            band (sets ``alias_columns``). The hard-edged chirp's spectrum decays slowly
+            past ±f_s/2 (its sampled ends alias); at the default −45 dB the focused NMSE
+            against the sampled time-domain echo is within 0.4 dB of summing every
+            column (at −35 dB, 1.5 dB worse on a speckle grid; ``range_aliases=0``, the
+            seed's model, is the fastest and least faithful at the chirp ends).
         coupling_order: moderate deviation only: Taylor order of the coupling correction
             (0 = the seed's Algorithm B). The seed neglects
             ``ϕ = √((r + δ)² + (x' − x)²) − √(r² + (x' − x)²) − δ ≈ δ (r/R − 1)``
@@ -272,14 +374,22 @@ class _FourierBase(AbstractSimulator):
         envelope_correction: moderate deviation only: apply the range-envelope shift of
             ψ(x', r) to first order (``e^{−jηψ} ≈ 1 − jηψ``, one extra range synthesis);
             the seed neglects it (its condition (12), ``η_max |ψ| ≪ 1``).
+        column_block: range columns per block of the range synthesis, azimuth inverse
+            transform and per-pulse assembly (None: about 1 MiB of complex128 per block).
+        column_loops: independent loops the column blocks are split into (they may run
+            concurrently).
+        azimuth_pad, range_fft_size, alias_columns: static sizes fixed by ``prepare``.
     """
 
     pointing_order: int = eqx.field(static=True, default=2)
     azimuth_padding: float = eqx.field(static=True, default=1.0)
     taps: int = eqx.field(static=True, default=8)
     range_aliases: int = eqx.field(static=True, default=1)
+    alias_tolerance: float = eqx.field(static=True, default=10 ** -4.5)
     coupling_order: int = eqx.field(static=True, default=3)
     envelope_correction: bool = eqx.field(static=True, default=True)
+    column_block: int | None = eqx.field(static=True, default=None)
+    column_loops: int = eqx.field(static=True, default=2)
     azimuth_pad: int | None = eqx.field(static=True, default=None)
     range_fft_size: int | None = eqx.field(static=True, default=None)
     alias_columns: int | None = eqx.field(static=True, default=None)
@@ -288,22 +398,26 @@ class _FourierBase(AbstractSimulator):
         """Check grid scenes; fix the padding and FFT sizes from concrete values."""
         if isinstance(scene, ReflectivityGrid):
             check_grid_scene(scene, radar)
-        if self.azimuth_pad is not None and self.range_fft_size is not None:
+        if not (isinstance(self.alias_tolerance, (int, float))
+                and 0 < self.alias_tolerance < 1):
+            raise ValueError(f"alias_tolerance={self.alias_tolerance!r} must be in (0, 1)")
+        if self.column_block is not None and not (
+                isinstance(self.column_block, int) and self.column_block >= 1):
+            raise ValueError(f"column_block={self.column_block!r} must be a positive integer")
+        if (self.azimuth_pad is not None and self.range_fft_size is not None
+                and self.alias_columns is not None):
             return self
         footprint = float(radar.footprint(np.max(np.asarray(scene.range))))
         pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
         pad = -(-pad // 128) * 128  # coarse steps: new target ranges rarely recompile
         chirp = int(float(radar.chirp_samples)) + 2
         n_r = next_fast_len(acquisition.num_range + chirp)
-        # columns per range alias where |C(η ± 2π/Δr)| exceeds 1e-4 of the peak
-        eta = np.asarray(range_wavenumbers(radar, n_r))
-        peak = float(np.max(np.abs(np.asarray(chirp_spectrum(radar, eta)))))
-        shifted = np.abs(np.asarray(chirp_spectrum(radar, np.sort(eta) + 2 * np.pi / float(
-            radar.range_spacing))))
-        significant = np.flatnonzero(shifted > 1e-4 * peak)
-        columns = int(significant.max() + 1) if significant.size else 0
         return dataclasses.replace(
-            self, azimuth_pad=pad, range_fft_size=n_r, alias_columns=columns
+            self,
+            azimuth_pad=pad if self.azimuth_pad is None else self.azimuth_pad,
+            range_fft_size=n_r if self.range_fft_size is None else self.range_fft_size,
+            alias_columns=(alias_column_count(radar, n_r, self.alias_tolerance)
+                           if self.alias_columns is None else self.alias_columns),
         )
 
     def _run(self, radar, scene, motion, acquisition, dtype, mode):
@@ -313,6 +427,7 @@ class _FourierBase(AbstractSimulator):
         pad = n_pulses if self.azimuth_pad is None else self.azimuth_pad
         n_r = self.range_fft_size or next_fast_len(2 * n_range)
         n_x = next_fast_len(n_pulses + 2 * pad)
+        block = self.column_block or max(8, (1 << 20) // (16 * n_x))
 
         dx = radar.azimuth_spacing
         k0 = radar.wavenumber
@@ -321,14 +436,10 @@ class _FourierBase(AbstractSimulator):
         xi = azimuth_wavenumbers(radar, n_x)
         eta = range_wavenumbers(radar, n_r)
         horizontal, vertical, pointing = motion.resolve(n_pulses)
-        # padded per-pulse motion (edge values continue beyond the acquisition)
-        dy_full = jnp.pad(horizontal, (pad, n_x - n_pulses - pad), mode="edge")
-        dz_full = jnp.pad(vertical, (pad, n_x - n_pulses - pad), mode="edge")
-        x_full = x0 + jnp.arange(n_x) * dx
+        ranges = prepared.ranges
 
         u_star = stationary_pattern_argument(radar, xi)
-        alpha = jnp.sqrt(k0**2 - xi**2) - k0  # azimuth phase per metre of range [rad/m]
-        delta_r = geometry.reference_deviation(dy_full, dz_full, radar)  # δr(x'), (n_x,)
+        delta_kept = geometry.reference_deviation(horizontal, vertical, radar)  # δr(x')
         orders = range(self.pointing_order + 1) if mode != "ideal" else range(1)
         if mode != "ideal" and motion.pointing is None:
             orders = range(1)
@@ -338,7 +449,7 @@ class _FourierBase(AbstractSimulator):
         # alias m only matters for the columns whose η + 2πm/Δr lies near the band edge:
         # a static count per alias (prepare()), taken next to the Nyquist column
         half = n_r // 2
-        alias_sets = []  # (column indices or None for all, wavenumbers)
+        alias_sets = []  # (m, column indices or None for all, wavenumbers)
         for m in range(-self.range_aliases, self.range_aliases + 1):
             if m == 0:
                 alias_sets.append((0, None, eta + 0.0))
@@ -359,159 +470,158 @@ class _FourierBase(AbstractSimulator):
             scale = (-radar.antenna_length / radar.wavelength) ** order
             return scale * pattern_term(radar.pattern, order)(u_star)
 
-        def line_spectra(order, envelope=False):
-            """(n_x, n_lines) F_j(ξ), with pattern term ``order`` (None: no pattern). With
-            ``envelope`` (moderate only) the lines weighted by ψ(x', r_j) in x', for the
-            first-order range-envelope correction."""
+        # ---- scene → range lines F_j(ξ), (n_lines, n_x) ----------------------------------
+        if prepared.gridded:
+            gamma = prepared.reflectivity.T  # (n_lines, n_az)
+            xs = prepared.azimuth[None, :]
+            hs = prepared.height.T
+        else:
+            gamma = prepared.reflectivity[:, None]
+            xs = prepared.azimuth[:, None]
+            hs = prepared.height[:, None]
+        rs = ranges[:, None]
+        if mode == "small":
+            # γ̃ = γ exp[−j k₀ ψ(x, r)]: ψ at the pulse above the scatterer
+            dy_s = _interp_motion(horizontal, xs, x_pulses[0], dx)
+            dz_s = _interp_motion(vertical, xs, x_pulses[0], dx)
+            psi_s = geometry.range_variant_deviation(dy_s, dz_s, rs, hs, radar)
+            gamma = gamma * unit_phasor(-k0 * psi_s)
+        # per-line factors: √r_j of the stationary amplitude and the carrier e^{−jk₀r_j}
+        line_factor = jnp.sqrt(ranges) * unit_phasor(-jnp.mod(k0 * ranges, _TWO_PI))
+        gamma = gamma * line_factor[:, None]
+        # A(ξ, r) / √r = (1/Δx) √(2π k₀² / (k₀² − ξ²)^{3/2}) e^{−jπ/4}: a per-ξ factor,
+        # applied with the grid's azimuth ramp as a weight of the columns (small
+        # deviation, ideal 2-D) or of the lines (moderate deviation)
+        column_weight = stationary_amplitude(radar, xi, 1.0)
+        if prepared.gridded:
+            spectrum = _grid_azimuth_fft(gamma, n_x)
+            column_weight = column_weight * _grid_azimuth_ramp(prepared.azimuth, x0, dx, n_x)
+        else:
+            spectrum = gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - x0))
+
+        def moderate_lines(lines, envelope):
+            """Algorithm B along-track part: G_A, the motion phase exp[−j k₀ ψ(x', r_j)]
+            (and the first-order envelope terms), back to ξ. (n_lines, n_x)."""
+            alpha = jnp.sqrt(k0**2 - xi**2) - k0  # azimuth phase per metre of range
+            lines = lines * unit_phasor(-alpha[None, :] * ranges[:, None])
+            dy_full = jnp.pad(horizontal, (pad, n_x - n_pulses - pad), mode="edge")
+            dz_full = jnp.pad(vertical, (pad, n_x - n_pulses - pad), mode="edge")
+            x_full = x0 + jnp.arange(n_x) * dx
             if prepared.gridded:
-                gamma = prepared.reflectivity  # (n_az, n_lines)
-                xs = prepared.azimuth[:, None]
-                rs = prepared.ranges[None, :]
-                hs = prepared.height
+                h_line = _line_height_under_pulses(prepared, x_full)
             else:
-                gamma = prepared.reflectivity[None, :]
-                xs = prepared.azimuth[None, :]
-                rs = prepared.ranges[None, :]
-                hs = prepared.height[None, :]
-            if mode == "small":
-                # γ̃ = γ exp[−j k₀ ψ(x, r)]: ψ at the pulse above the scatterer
-                dy_s = _interp_motion(horizontal, xs, x_pulses[0], dx)
-                dz_s = _interp_motion(vertical, xs, x_pulses[0], dx)
-                psi = geometry.range_variant_deviation(dy_s, dz_s, rs, hs, radar)
-                gamma = gamma * jnp.exp(-1j * k0 * psi)
-            carrier = jnp.exp(-1j * jnp.mod(k0 * prepared.ranges, _TWO_PI))  # (n_lines,)
-            if prepared.gridded:
-                spectrum = _grid_azimuth_fft(gamma, prepared.azimuth, x0, dx, n_x)
+                h_line = prepared.height[:, None]
+            los = geometry.line_of_sight_deviation(
+                dy_full[None, :], dz_full[None, :], ranges[:, None], h_line, radar.height
+            )  # δr_xr(x', r_j) = ψ + δr  (n_lines, n_x)
+            psi = los - geometry.reference_deviation(dy_full, dz_full, radar)[None, :]
+            if self.coupling_order:
+                along = _coupled_inverse(lines, los, alpha, self.coupling_order)
             else:
-                spectrum = gamma * jnp.exp(-1j * xi[:, None] * (prepared.azimuth[None, :] - x0))
-            amp = stationary_amplitude(radar, xi[:, None], prepared.ranges[None, :])
-            weight = amp if order is None else amp * row_weight(order)[:, None]
-            if mode == "moderate":
-                g_a_phase = (jnp.sqrt(k0**2 - xi**2) - k0)[:, None] * prepared.ranges[None, :]
-                lines = spectrum * weight * jnp.exp(-1j * g_a_phase)
-                # motion phase exp[−j k₀ ψ(x', r_j)] with the scene height under the pulse
-                if prepared.gridded:
-                    h_line = _line_height_under_pulses(prepared, x_full)
-                else:
-                    h_line = prepared.height[None, :]
-                los = geometry.line_of_sight_deviation(
-                    dy_full[:, None], dz_full[:, None], prepared.ranges[None, :], h_line,
-                    radar.height,
-                )  # δr_xr(x', r_j) = ψ + δr  (n_x, n_lines)
-                psi = los - delta_r[:, None]
-                if self.coupling_order:
-                    along = _coupled_inverse(lines, los, alpha, self.coupling_order)
-                else:
-                    along = jnp.fft.ifft(lines, axis=0)  # (x', line): the seed's B
-                along = along * jnp.exp(-1j * k0 * psi)
-                if envelope:
-                    # envelope shift ψ, plus the migration error of the Doppler shift
-                    # −k₀ ∂ψ/∂x' (the migration at ξ sits at r k₀/√(k₀² − ξ²): moved by
-                    # −(r ξ/k₀) ∂ψ/∂x'), both to first order
-                    slope = jnp.gradient(psi, axis=0) / dx
-                    doppler = (xi[:, None] * prepared.ranges[None, :] / k0) * jnp.fft.fft(
-                        along * slope, axis=0
-                    )
-                    lines = jnp.fft.fft(along * psi, axis=0) + doppler
-                else:
-                    lines = jnp.fft.fft(along, axis=0)
-            else:
-                lines = spectrum * weight
-            return lines * carrier[None, :]
+                along = jnp.fft.ifft(lines, axis=1)  # (line, x'): the seed's B
+            along = along * unit_phasor(-k0 * psi)
+            if not envelope:
+                return jnp.fft.fft(along, axis=1)
+            # envelope shift ψ, plus the migration error of the Doppler shift −k₀ ∂ψ/∂x'
+            # (the migration at ξ sits at r k₀/√(k₀² − ξ²): moved by −(r ξ/k₀) ∂ψ/∂x'),
+            # both to first order
+            slope = jnp.gradient(psi, axis=1) / dx
+            doppler = (ranges[:, None] * xi[None, :] / k0) * jnp.fft.fft(along * slope, axis=1)
+            return jnp.fft.fft(along * psi, axis=1) + doppler
 
-        near = acquisition.near_range
-
-        def synthesize(lines, envelope=False, all_aliases=True):
-            """Per range alias m: (1/Δr) C(η_m) e^{jη_m r'_0} Σ_j F_j e^{−jκ(ξ, η_m) r_j}, as a
-            list of (ξ, columns) arrays (None for skipped aliases); with ``envelope`` also
-            multiplied by −jη_m; ``all_aliases=False`` keeps only m = 0."""
-            out = []
-            for m, _cols, eta_m in alias_sets:
-                if m and not all_aliases:
-                    out.append(None)
-                    continue
-                kappa = kappa_fn(radar, xi[:, None], eta_m[None, :])
-                if prepared.gridded and prepared.ranges.shape[0] > 1:
-                    step = prepared.ranges[1] - prepared.ranges[0]
-                    # the aliases carry ≲ −20 dB of the echo: 4 taps (≈ −30 dB) suffice there
-                    taps = self.taps if m == 0 else min(self.taps, 4)
-                    summed = synthesize_grid(lines, prepared.ranges[0], step, kappa, taps=taps)
-                else:
-                    summed = synthesize_direct(lines, prepared.ranges, kappa)
-                factor = chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near)
-                if envelope:
-                    factor = factor * (-1j * eta_m)
-                out.append(summed * (factor / radar.range_spacing)[None, :])
-            return out
-
-        pointing_full = jnp.pad(pointing, (pad, n_x - n_pulses - pad))
-        # δx/X = (r + δr_xr) δ_az / X ≈ (L/λ)(1 + δr/r₀) δ_az; (−L/λ)ⁿ is in line_spectra
-        pointing_scale = (1 + delta_r / radar.reference_range) * pointing_full
-        if mode == "moderate":  # the pattern precedes the motion phase: one synthesis each
-            # pointing terms are ≲ 5 % of the echo: their range aliases (≲ −25 dB of them)
-            # are negligible, so they are synthesised for the main alias only
-            spectra = [synthesize(line_spectra(order), all_aliases=order == 0)
-                       for order in orders]
+        # line sets to synthesise: (lines, all aliases?); and the terms of each alias
+        if mode == "moderate":  # the pattern precedes the motion phase: one set per order
+            line_sets = []
+            for order in orders:
+                weighted = spectrum * (column_weight * row_weight(order))[None, :]
+                line_sets.append(moderate_lines(weighted, False))
+            envelope_set = None
             if self.envelope_correction:
                 # range envelope of ψ (the seed's condition (12)) to first order,
                 # e^{−jηψ} ≈ 1 − jηψ, on the main term (pointing terms are already small)
-                correction = synthesize(line_spectra(0, envelope=True), True)
-                spectra[0] = [a + b for a, b in zip(spectra[0], correction, strict=True)]
+                weighted = spectrum * (column_weight * row_weight(0))[None, :]
+                envelope_set = moderate_lines(weighted, True)
         else:  # the pattern is a per-ξ factor: synthesise once, weight per order
-            common = [None if a is None else jax.lax.optimization_barrier(a)
-                      for a in synthesize(line_spectra(None))]
-            spectra = [
-                [None if (a is None or (m and order)) else a * row_weight(order)[:, None]
-                 for (m, _, _), a in zip(alias_sets, common, strict=True)]
-                for order in orders
-            ]
+            line_sets = [spectrum]
+            envelope_set = None
 
-        # per pulse: Σ_n δ_azⁿ h̃_n, then the deviation δr(x') shifts envelope and phase,
-        # exp[−j(η_m + k₀) δr(x')], separately for each range alias (a fractional shift of
-        # the sampled echo moves each alias with its own wavenumber)
-        keep = slice(pad, pad + n_pulses)  # per-pulse work only on the acquired pulses
-        scale_kept = pointing_scale[keep]
-        delta_kept = delta_r[keep]
-        total = jnp.zeros((n_r, n_pulses), jnp.complex128)  # (η, x'): FFTs on the last axis
-        for index, (_, cols, eta_m) in enumerate(alias_sets):
-            per_alias = 0.0
-            for order, per_order in zip(orders, spectra, strict=True):
-                if per_order[index] is None:
-                    continue
-                along = jnp.fft.ifft(per_order[index].T, axis=-1)[:, keep]  # (η, x')
-                per_alias = per_alias + along * (scale_kept**order)[None, :]
-            if mode != "ideal":
-                per_alias = per_alias * jnp.exp(-1j * (eta_m[:, None] + k0) * delta_kept[None, :])
+        gridded = prepared.gridded and ranges.shape[0] > 1
+        dtfts = [grid_dtft(lines) for lines in line_sets] if gridded else line_sets
+        env_dtft = None
+        if envelope_set is not None:
+            env_dtft = grid_dtft(envelope_set) if gridded else envelope_set
+
+        near = acquisition.near_range
+        pointing_scale = (1 + delta_kept / radar.reference_range) * pointing
+        # δx/X = (r + δr_xr) δ_az / X ≈ (L/λ)(1 + δr/r₀) δ_az; (−L/λ)ⁿ is in row_weight
+        scale_powers = {n: pointing_scale**n for n in orders if n}
+        total = jnp.zeros((n_r, n_pulses), jnp.complex128)  # (η, x')
+        for m, cols, eta_m in alias_sets:
+            # the aliases carry ≲ −20 dB of the echo: 4 taps (≈ −30 dB) suffice there
+            taps = self.taps if m == 0 else min(self.taps, 4)
+            # pointing terms are ≲ 5 % of the echo: their range aliases (≲ −25 dB of them)
+            # are negligible, so (moderate deviation) they are synthesised for m = 0 only
+            n_sets = len(line_sets) if m == 0 else 1
+
+            def produce(eta_block, taps=taps, n_sets=n_sets):
+                """(n_x, size) spectra for the columns η of one block."""
+                kappa = kappa_fn(radar, xi[:, None], eta_block[None, :])
+
+                def synth(table):
+                    if gridded:
+                        return synthesize_grid(table, ranges, kappa, taps=taps)
+                    return synthesize_direct(table, ranges, kappa)
+
+                factor = chirp_spectrum(radar, eta_block) * unit_phasor(eta_block * near)
+                out = []
+                for q in range(n_sets):
+                    rel, r_ref = synth(dtfts[q])
+                    if q == 0 and env_dtft is not None:
+                        rel = rel + (-1j * eta_block)[None, :] * synth(env_dtft)[0]
+                    out.append(rel)
+                phase = unit_phasor(-kappa * r_ref) * (factor / radar.range_spacing)[None, :]
+                return [rel * phase for rel in out]
+
+            if mode == "moderate":
+                terms = [(q, None, order) for q, order in zip(range(n_sets), orders)]
+            elif m == 0:
+                terms = [(0, column_weight * row_weight(order), order) for order in orders]
+            else:
+                terms = [(0, column_weight * row_weight(0), 0)]
+            per_alias = columns_to_pulses(
+                produce, terms, eta_m, None if mode == "ideal" else delta_kept, scale_powers,
+                k0, pad=pad, num_pulses=n_pulses, block=block, loops=self.column_loops,
+            )
             total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
         raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
         return raw.astype(dtype)
 
 
 def _coupled_inverse(lines, los, alpha, order):
-    """(n_x, n_lines) ``Σ_ξ Y(ξ) e^{jξx'} e^{−jα(ξ) δ(x')}`` by a Taylor series of order
+    """(n_lines, n_x) ``Σ_ξ Y(ξ) e^{jξx'} e^{−jα(ξ) δ(x')}`` by a Taylor series of order
     ``order`` in ``δ − δ̄`` (δ̄ the mean over pulses of each line)."""
-    mean = jnp.mean(los, axis=0, keepdims=True)  # (1, n_lines)
-    base = lines * jnp.exp(-1j * alpha[:, None] * mean)
+    mean = jnp.mean(los, axis=1, keepdims=True)  # (n_lines, 1)
+    base = lines * unit_phasor(-alpha[None, :] * mean)
     delta = los - mean
-    out = jnp.fft.ifft(base, axis=0)
+    out = jnp.fft.ifft(base, axis=1)
     term = base
     coef = jnp.ones_like(delta, dtype=base.dtype)
     for n in range(1, order + 1):
-        term = term * alpha[:, None]
+        term = term * alpha[None, :]
         coef = coef * (-1j * delta) / n
-        out = out + coef * jnp.fft.ifft(term, axis=0)
+        out = out + coef * jnp.fft.ifft(term, axis=1)
     return out
 
 
 def _line_height_under_pulses(prepared, x_full):
-    """(n_x, n_lines) grid height h(x', r_j) at the pulse azimuths (nearest grid row; 0
+    """(n_lines, n_x) grid height h(x', r_j) at the pulse azimuths (nearest grid row; 0
     outside the grid)."""
     az = prepared.azimuth
     step = jnp.where(az.shape[0] > 1, az[-1] - az[0], 1.0) / jnp.maximum(az.shape[0] - 1, 1)
     idx = jnp.round((x_full - az[0]) / step).astype(jnp.int32)
     inside = (idx >= 0) & (idx < az.shape[0])
-    rows = prepared.height[jnp.clip(idx, 0, az.shape[0] - 1)]
-    return jnp.where(inside[:, None], rows, 0.0)
+    rows = prepared.height.T[:, jnp.clip(idx, 0, az.shape[0] - 1)]
+    return jnp.where(inside[None, :], rows, 0.0)
 
 
 class Fourier2D(_FourierBase):

@@ -1,0 +1,92 @@
+"""Unit phasors e^{jφ} from multiply–adds.
+
+XLA on the CPU evaluates ``exp(1j φ)`` (and ``cos``/``sin``) through scalar library calls,
+about 20 ns per element on the reference machine: for the Fourier simulators, whose
+per-sample work is otherwise a handful of multiply–adds, the phasors dominated the run
+time. :func:`unit_phasor` reduces ``φ`` by multiples of π/2 (three-part Cody–Waite
+constants) and evaluates the sine and cosine of the remainder
+``|r| ≤ π/4`` by their Taylor series to degree 17 / 16 (truncation < 1e-17), all in
+vectorisable arithmetic; the quadrant is applied by selection.
+
+Error against ``numpy.exp(1j φ)``: ≤ 2e-16 + 2e-16·|φ| in float64 (the second term is the
+rounding of φ itself); in float32, ≤ 1e-6 + 1.2e-7·|φ|. The derivative is the exact
+``d e^{jφ} = j e^{jφ} dφ`` (a custom JVP).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+# π/2 = _P1 + _P2 + _P3 (+ 5e-36): _P1 and _P2 have 30 significant bits, so that n·_P1
+# and n·_P2 are exact for |n| < 2²³ and their rounding stays below 2⁻⁵³·|n·_P| beyond
+_P1 = 1.5707963276654482
+_P2 = -8.705515692000731e-10
+_P3 = -3.50343439808993e-19
+_TWO_OVER_PI = 2.0 / np.pi
+
+# Taylor coefficients (−1)^k / (2k+1)! and (−1)^k / (2k)!
+_SIN = [(-1) ** k / float(np.prod(np.arange(1, 2 * k + 2))) for k in range(9)]
+_COS = [(-1) ** k / float(np.prod(np.arange(1, 2 * k + 1))) for k in range(9)]
+
+
+def _horner(coefficients, x):
+    out = jnp.full_like(x, coefficients[-1])
+    for c in coefficients[-2::-1]:
+        out = out * x + c
+    return out
+
+
+def _sin_cos(phase):
+    """(sin φ, cos φ) for real floating φ."""
+    n = jnp.round(phase * _TWO_OVER_PI)
+    r = ((phase - n * _P1) - n * _P2) - n * _P3  # |r| ≤ π/4
+    r2 = r * r
+    sin_r = r * _horner(_SIN, r2)
+    cos_r = _horner(_COS, r2)
+    quadrant = jnp.mod(n, 4.0)  # 0, 1, 2, 3 (n is an integer-valued float)
+    swap = (quadrant == 1.0) | (quadrant == 3.0)
+    sin_q = jnp.where(swap, cos_r, sin_r)
+    cos_q = jnp.where(swap, sin_r, cos_r)
+    sin_sign = jnp.where(quadrant >= 2.0, -1.0, 1.0)
+    cos_sign = jnp.where((quadrant == 1.0) | (quadrant == 2.0), -1.0, 1.0)
+    return sin_sign * sin_q, cos_sign * cos_q
+
+
+@jax.custom_jvp
+def sine(x):
+    """sin x for real x, by the same reduction and series as :func:`unit_phasor`."""
+    return _sin_cos(jnp.asarray(x))[0]
+
+
+@sine.defjvp
+def _sine_jvp(primals, tangents):
+    (x,), (dx,) = primals, tangents
+    s, c = _sin_cos(jnp.asarray(x))
+    return s, c * dx
+
+
+@jax.custom_jvp
+def unit_phasor(phase):
+    """e^{jφ} for real φ (any shape), complex128 for float64 input, complex64 for float32.
+
+    Args:
+        phase: φ [rad], real.
+
+    Returns:
+        complex array of the same shape, ``cos φ + j sin φ``.
+    """
+    phase = jnp.asarray(phase)
+    if not jnp.issubdtype(phase.dtype, jnp.floating):
+        phase = phase.astype(jnp.result_type(float))
+    s, c = _sin_cos(phase)
+    return jax.lax.complex(c, s)
+
+
+@unit_phasor.defjvp
+def _unit_phasor_jvp(primals, tangents):
+    (phase,), (dphase,) = primals, tangents
+    out = unit_phasor(phase)
+    return out, out * (1j * jnp.asarray(dphase, phase.dtype if hasattr(phase, "dtype") else
+                                       jnp.result_type(float)))
