@@ -12,21 +12,25 @@ from .scene import PointTargets, ReflectivityGrid
 from .validity import choose_method
 from .simulators import (
     AbstractSimulator,
+    ChirpScaling,
     Fourier2D,
     HighSpeed,
     ModerateDeviation,
     SmallDeviation,
     TimeDomain,
+    TimeDomainNUFFT,
 )
 
 _METHODS = {
     "time_domain": TimeDomain,
+    "time_domain_nufft": TimeDomainNUFFT,
     "fourier_2d": Fourier2D,
     "small_deviation": SmallDeviation,
     "algorithm_a": SmallDeviation,
     "moderate_deviation": ModerateDeviation,
     "algorithm_b": ModerateDeviation,
     "high_speed": HighSpeed,
+    "chirp_scaling": ChirpScaling,
 }
 
 

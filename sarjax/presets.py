@@ -9,7 +9,7 @@ from __future__ import annotations
 from .constants import SPEED_OF_LIGHT
 from .radar import Radar
 
-__all__ = ["airborne_xband", "spaceborne_cband", "highspeed_xband"]
+__all__ = ["airborne_xband", "spaceborne_cband", "spaceborne_cband_extended", "highspeed_xband"]
 
 
 def _build(defaults: dict, overrides: dict) -> Radar:
@@ -71,6 +71,35 @@ def spaceborne_cband(**overrides) -> Radar:
         squint=0.0,
         num_pulses=600,
         num_range=882,
+    )
+    return _build(defaults, overrides)
+
+
+def spaceborne_cband_extended(**overrides) -> Radar:
+    """C-band spaceborne system of seed 003 Table 1, extended-scene column (1171 × 747).
+
+    f = 5.33 GHz, f_s = 19.2 MHz, PRF = 1174 Hz, 1 s of data, τ = 21.6 µs, Δf = 16.2 MHz,
+    near range 799 km, v = 855 m/s; L = 1 m as in the listing (Appendix A). Assumed, as in
+    :func:`spaceborne_cband`: H = 692 km. The default grid is the seed's 1171 pulses × 747
+    range samples (0.73 m × 7.8 m), the range window starting at 799 km.
+    """
+    sampling_rate = 19.2e6
+    num_range = 747
+    near_range = 799e3
+    defaults = dict(
+        carrier_frequency=5.33e9,
+        bandwidth=16.2e6,
+        chirp_duration=21.6e-6,
+        sampling_rate=sampling_rate,
+        prf=1174.0,
+        velocity=855.0,
+        height=692e3,
+        antenna_length=1.0,
+        reference_range=near_range + (num_range // 2) * SPEED_OF_LIGHT / (2 * sampling_rate),
+        near_range=near_range,
+        squint=0.0,
+        num_pulses=1171,
+        num_range=num_range,
     )
     return _build(defaults, overrides)
 

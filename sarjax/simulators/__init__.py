@@ -2,7 +2,9 @@
 
 from ._base import AbstractSimulator as AbstractSimulator
 from ._time_domain import TimeDomain as TimeDomain
+from ._nufft import TimeDomainNUFFT as TimeDomainNUFFT
 from ._fourier import Fourier2D as Fourier2D
 from ._fourier import ModerateDeviation as ModerateDeviation
 from ._fourier import SmallDeviation as SmallDeviation
 from ._high_speed import HighSpeed as HighSpeed
+from ._chirp_scaling import ChirpScaling as ChirpScaling
