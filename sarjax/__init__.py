@@ -32,6 +32,7 @@ from .simulators import Fourier2D as Fourier2D  # noqa: E402
 from .simulators import ModerateDeviation as ModerateDeviation  # noqa: E402
 from .simulators import SmallDeviation as SmallDeviation  # noqa: E402
 from .simulators import TimeDomain as TimeDomain  # noqa: E402
+from .simulators import TimeDomainNUFFT as TimeDomainNUFFT  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import processing as processing  # noqa: E402
 from .metrics import point_target_metrics as point_target_metrics  # noqa: E402
@@ -39,3 +40,12 @@ from .processing import focus as focus  # noqa: E402
 from .validity import Budget as Budget  # noqa: E402
 from .validity import Validity as Validity  # noqa: E402
 from .validity import validity as validity  # noqa: E402
+from . import inverse as inverse  # noqa: E402
+from .inverse import crb as crb  # noqa: E402
+from .inverse import fit_motion as fit_motion  # noqa: E402
+from .inverse import BSpline as BSpline  # noqa: E402
+from .inverse import Fourier as Fourier  # noqa: E402
+from .inverse import MotionModel as MotionModel  # noqa: E402
+from .inverse import PerPulse as PerPulse  # noqa: E402
+from .inverse import SinusoidalJitter as SinusoidalJitter  # noqa: E402
+from .inverse import SmoothJitter as SmoothJitter  # noqa: E402

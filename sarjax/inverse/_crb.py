@@ -12,7 +12,7 @@ from jax.flatten_util import ravel_pytree
 
 from ..motion import Motion
 from . import _engine, _setup
-from ._fit import _jitter_summary, _profile_std, _scene_centre_direction
+from ._fit import _jitter_summary, _profile_std, _scene_centre_direction, project_profiles
 from ._parametrisations import MotionModel, SinusoidalJitter
 
 
@@ -169,23 +169,5 @@ def crb(
 
 
 def _params_from_motion(model, motion, raw_x, p0, p1, los, jitter):
-    n = raw_x.size
-    dy, dz, pointing = (np.asarray(v)[p0:p1] for v in motion.resolve(n))
-    x = raw_x[p0:p1]
-    params = {}
-    if model.horizontal is not None:
-        if los is not None:
-            s, c = los
-            params["horizontal"] = model.horizontal.project(-s * dy + c * dz, x)
-        else:
-            params["horizontal"] = model.horizontal.project(dy, x)
-    if model.vertical is not None:
-        params["vertical"] = model.vertical.project(dz, x)
-    if model.pointing is not None:
-        if isinstance(model.pointing, SinusoidalJitter):
-            if jitter is None:
-                raise ValueError("SinusoidalJitter needs jitter=(amplitude, period, phase)")
-            params["pointing"] = model.pointing.from_physical(*jitter)
-        else:
-            params["pointing"] = model.pointing.project(pointing, x)
-    return params
+    dy, dz, pointing = (np.asarray(v)[p0:p1] for v in motion.resolve(raw_x.size))
+    return project_profiles(model, dy, dz, pointing, raw_x[p0:p1], los, jitter)

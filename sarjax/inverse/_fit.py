@@ -526,6 +526,12 @@ def _initial_params(model, initial, x, los):
     ) else (None, None, None)
     if dy is None:
         raise ValueError(f"initial Motion must have one value per fitted pulse ({n})")
+    return project_profiles(model, dy, dz, pointing, x, los)
+
+
+def project_profiles(model, dy, dz, pointing, x, los, jitter=None):
+    """Model parameters of given (support,) profiles: least-squares projections of the
+    linear components; a :class:`SinusoidalJitter` from ``jitter = (δ_m, T_b, φ₀)``."""
     params = {}
     if model.horizontal is not None:
         if los is not None:
@@ -536,7 +542,13 @@ def _initial_params(model, initial, x, los):
     if model.vertical is not None:
         params["vertical"] = model.vertical.project(dz, x)
     if model.pointing is not None:
-        params["pointing"] = model.pointing.project(pointing, x)
+        if isinstance(model.pointing, SinusoidalJitter):
+            if jitter is None:
+                raise ValueError("SinusoidalJitter needs jitter=(amplitude, period, phase) or "
+                                 "initial parameters as a dict")
+            params["pointing"] = model.pointing.from_physical(*jitter)
+        else:
+            params["pointing"] = model.pointing.project(pointing, x)
     return params
 
 
