@@ -13,6 +13,8 @@ import abc
 import equinox as eqx
 import jax.numpy as jnp
 
+from ._phasor import sine
+
 
 class AbstractPattern(eqx.Module):
     """Two-way azimuth illumination ``W²(u)``; ``u`` dimensionless, result dimensionless."""
@@ -34,7 +36,7 @@ class Sinc2Pattern(AbstractPattern):
         # accurate (the quotient sin(πu)/(πu) loses them to cancellation as u → 0).
         small = jnp.abs(u) < 0.05
         safe = jnp.where(small, 0.1, u)
-        quotient = (jnp.sin(jnp.pi * safe) / (jnp.pi * safe)) ** 2
+        quotient = (sine(jnp.pi * safe) / (jnp.pi * safe)) ** 2  # sine: multiply-adds
         x2 = (jnp.pi * u) ** 2
         # sinc²(u) = 1 − x²/3 + 2x⁴/45 − x⁶/315 + 2x⁸/14175 − …,  x = πu
         series = 1 - x2 / 3 + 2 * x2**2 / 45 - x2**3 / 315 + 2 * x2**4 / 14175

@@ -36,6 +36,7 @@ amplitude of the azimuth transform (kept, since its √r varies across the swath
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import equinox as eqx
@@ -91,8 +92,11 @@ def chirp_spectrum(radar, eta):
         radar: the :class:`~sarjax.Radar`.
         eta: range wavenumbers [rad/m] (any shape).
     """
-    b = radar.chirp_rate
-    half = radar.pulse_half_length
+    return _chirp_spectrum(radar.chirp_rate, radar.pulse_half_length, eta)
+
+
+def _chirp_spectrum(b, half, eta):
+    """C(η) for chirp rate b [rad/m²] and half-length cτ/4 [m] (see :func:`chirp_spectrum`)."""
     scale = jnp.sqrt(2 * b / jnp.pi)
     t1 = (-half + eta / (2 * b)) * scale
     t2 = (half + eta / (2 * b)) * scale
@@ -334,13 +338,22 @@ def alias_column_count(radar, n_r, tolerance):
     ripple; the alias m = +1 enters the sampled band from its lower edge (and m = −1 from
     the upper edge), so its columns are counted from there.
     """
-    eta = np.sort(np.asarray(range_wavenumbers(radar, n_r)))
-    main = np.abs(np.asarray(chirp_spectrum(radar, eta))) ** 2
-    alias = np.abs(np.asarray(chirp_spectrum(
-        radar, eta + 2 * np.pi / float(radar.range_spacing)))) ** 2
+    key = tuple(float(v) for v in (radar.chirp_rate, radar.pulse_half_length,
+                                   radar.range_spacing)) + (int(n_r), float(tolerance))
+    return _alias_column_count(*key)
+
+
+@functools.lru_cache(maxsize=256)
+def _alias_column_count(chirp_rate, half_length, range_spacing, n_r, tolerance):
+    eta = np.sort(2 * np.pi * np.fft.fftfreq(n_r, range_spacing))
+    step = 2 * np.pi / range_spacing
+    with jax.ensure_compile_time_eval():
+        main = np.abs(np.asarray(_chirp_spectrum(chirp_rate, half_length, eta))) ** 2
+        alias = np.abs(np.asarray(_chirp_spectrum(chirp_rate, half_length, eta + step))) ** 2
     left_out = alias.sum() - np.cumsum(alias)  # energy beyond the first k + 1 columns
-    within = np.flatnonzero(left_out <= tolerance * main.sum())
-    return int(within[0] + 1) if alias.sum() > tolerance * main.sum() else 0
+    if alias.sum() <= tolerance * main.sum():
+        return 0
+    return int(np.flatnonzero(left_out <= tolerance * main.sum())[0] + 1)
 
 
 # --------------------------------------------------------------------------------------

@@ -1,0 +1,290 @@
+"""The exact model at Fourier speed: one non-uniform FFT per pulse (physics.md §3).
+
+Per pulse x', the sampled echo of scatterers at one-way echo ranges ρ_P (exact 3-D
+geometry with the pulse's deviation; the same ``ρ``, pattern and carrier phase as
+:class:`~sarjax.simulators.TimeDomain`) has the DFT over its range samples
+
+    D(η_k) = (1/Δr) Σ_m C(η_k + 2πm/Δr) F(η_k + 2πm/Δr),
+    F(η) = Σ_P a_P e^{−jη (ρ_P − r'_0)},    a_P = γ_P W²(u_P) e^{−j 4πρ_P/λ},
+
+with C the chirp's continuous spectrum (Fresnel integrals, see
+:func:`sarjax.simulators._fourier.chirp_spectrum`) and m the range aliases of the sampled
+hard-edged chirp (Poisson summation). ``F`` on the (2M + 1)·n_r wavenumbers of the
+bands m = −M … M is a type-1 non-uniform FFT: each scatterer is spread onto a 2×
+oversampled periodic grid with an "exponential of semicircle" kernel
+``φ(z) = exp(β(√(1 − z²) − 1))`` of ``w`` cells (evaluated as a polynomial in the
+fractional offset), the grid is FFT'd and divided by the kernel's transform. The bands
+are folded onto the sampled band and one inverse FFT gives the pulse's samples.
+
+Cost per pulse ``O(w N_P + n_r log n_r)`` instead of the direct ``O(N_P N_r)``; the
+kernel width follows ``tolerance`` (``w = ⌈log₁₀(1/tolerance)⌉ + 1``: relative error
+≈ tolerance). ``engine="direct"`` evaluates ``F`` as the plain sum (the reference with
+the same band limit). The model differs from the direct time-domain simulator only by
+the chirp spectrum's tails beyond the 2M + 1 bands (``range_bands=M``): they are what
+the sampled hard-edged pulse aliases, and they fall off as 1/η².
+
+Scatterers whose echo does not reach the range window contribute nothing (as in the
+time domain): they are masked, so that the periodic FFT cannot wrap them in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import ClassVar
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import geometry
+from .._phasor import unit_phasor
+from ..processing._interpolation import next_fast_len
+from ..scene import ReflectivityGrid
+from ._base import AbstractSimulator
+from ._fourier import chirp_spectrum
+from ._time_domain import TimeDomain, echo_range_offset, pattern_argument
+
+_TWO_PI = 2 * np.pi
+
+
+# --------------------------------------------------------------------------------------
+# spreading kernel
+# --------------------------------------------------------------------------------------
+
+
+def kernel_width(tolerance):
+    """Cells w of the spreading kernel for a relative error ≈ ``tolerance`` (2× grid)."""
+    if not (isinstance(tolerance, (int, float)) and 1e-14 <= tolerance < 1):
+        raise ValueError(f"tolerance={tolerance!r} must be a number in [1e-14, 1)")
+    return int(min(16, max(2, math.ceil(math.log10(1.0 / tolerance)) + 1)))
+
+
+@functools.lru_cache(maxsize=32)
+def spreading_kernel(width, oversampling):
+    """Polynomial coefficients of the ES kernel's taps and its Fourier transform.
+
+    Returns:
+        ``(coefficients, beta)``: (degree + 1, width) float64, ``coefficients[k, i]`` of
+        ``f^k`` for tap i, where tap i of a point at grid position t sits at cell
+        ``⌈t − w/2⌉ + i`` and ``f = ⌈t − w/2⌉ − (t − w/2) ∈ [0, 1)``; and β.
+    """
+    # β for a 2× grid (FINUFFT's choice, 2.30 w), scaled for other oversampling factors
+    beta = 2.30 * width * (1.0 - 0.5 / oversampling) / 0.75
+    degree = width + 4
+    f = 0.5 * (1 - np.cos(np.pi * (np.arange(4 * degree) + 0.5) / (4 * degree)))
+    coefficients = np.empty((degree + 1, width))
+    for i in range(width):
+        values = _es(f + i - width / 2, width, beta)
+        coefficients[:, i] = np.polynomial.polynomial.polyfit(f, values, degree)
+    return coefficients, beta
+
+
+def _es(distance, width, beta):
+    z2 = np.clip((2.0 * np.asarray(distance) / width) ** 2, 0.0, 1.0)
+    return np.exp(beta * (np.sqrt(1.0 - z2) - 1.0))
+
+
+@functools.lru_cache(maxsize=32)
+def kernel_transform(width, oversampling, grid, modes):
+    """(modes,) ψ̂(2πq/G) in FFT order of the modes q: ∫ φ(t) e^{−j2πqt/G} dt over the
+    kernel's support (Gauss–Legendre on each half; the kernel is even)."""
+    _, beta = spreading_kernel(width, oversampling)
+    nodes, weights = np.polynomial.legendre.leggauss(400)
+    t = 0.25 * width * (nodes + 1)  # [0, w/2]
+    w = 0.25 * width * weights
+    q = np.fft.fftfreq(modes, 1.0 / modes)
+    values = _es(t, width, beta)
+    return 2 * np.cos(2 * np.pi * np.outer(q, t) / grid) @ (values * w)
+
+
+def _spread(points, amplitude, width, grid, coefficients, reach):
+    """(grid,) Σ_P a_P ψ(l − t_P) on a periodic grid of ``grid`` cells.
+
+    Args:
+        points: (n,) grid positions t_P [cells] (float64), within ``[−reach, grid + reach]``
+            for every non-zero amplitude (others are clamped).
+        amplitude: (n,) complex a_P.
+        reach: cells a point may lie outside [0, grid) (static).
+
+    The taps are added one at a time in a loop: its operands (positions, amplitudes) are
+    then computed once, not once per tap as a fused ``amplitude[:, None] * taps`` would;
+    an extended grid with the wrap folded afterwards avoids a modulo per tap.
+    """
+    low = int(math.ceil(reach)) + width
+    start = jnp.ceil(points - width / 2)
+    f = start - (points - width / 2)  # [0, 1)
+    first = jnp.clip(start, -low, grid + low).astype(jnp.int32) + low
+    table = jnp.asarray(coefficients)
+
+    def add_tap(i, extended):
+        c = table[:, i]
+        tap = jnp.full_like(f, c[-1])
+        for k in range(table.shape[0] - 2, -1, -1):
+            tap = tap * f + c[k]
+        return extended.at[first + i].add(amplitude * tap.astype(amplitude.dtype),
+                                          mode="promise_in_bounds")
+
+    extended = jnp.zeros(grid + 2 * low + width, amplitude.dtype)
+    extended = jax.lax.fori_loop(0, width, add_tap, extended)
+    out = extended[low:low + grid]
+    out = out.at[grid - low:].add(extended[:low])  # cells −low … −1 wrap to the end
+    return out.at[:low + width].add(extended[low + grid:])  # cells G … wrap to the start
+
+
+# --------------------------------------------------------------------------------------
+# the simulator
+# --------------------------------------------------------------------------------------
+
+
+class TimeDomainNUFFT(AbstractSimulator):
+    """Exact time-domain model, one non-uniform FFT per pulse (module docstring).
+
+    ``method="time_domain_nufft"``. Same geometry, pattern, carrier phase, squint, moving
+    scatterers and ``stop_and_go`` as ``method="time_domain"``; the chirp is represented
+    by its spectrum over ``2 range_bands + 1`` bands of width f_s (the direct time-domain
+    simulator samples the hard-edged chirp, whose spectrum never ends): the two agree to
+    the energy of the chirp spectrum outside those bands (−36 dB for the airborne set
+    with ``range_bands=1``, −44 dB with 2 at the chirp ends; the echo interiors agree far
+    better). ``method="time_domain"`` is unchanged (it stays the exact judge).
+
+    Attributes:
+        tolerance: relative accuracy of the non-uniform FFT (kernel width).
+        range_bands: chirp-spectrum bands M on each side of the sampled band.
+        engine: ``"nufft"`` or ``"direct"`` (plain sum over scatterers: the reference
+            with the same band limit, O(N_P · (2M + 1) n_r) per pulse).
+        stop_and_go: as :class:`~sarjax.simulators.TimeDomain`.
+        pulse_chunk: pulses evaluated together (vmapped; default 1: XLA's scatter-add is
+            ~4× slower batched); larger chunks are bounded by ``memory_budget``.
+        memory_budget: bytes for the per-chunk intermediates.
+        loops: independent pulse loops (they may run concurrently on several cores).
+        range_fft_size, general: static sizes / model choice fixed by ``prepare``.
+    """
+
+    supports_squint: ClassVar[bool] = True
+    supports_moving_targets: ClassVar[bool] = True
+
+    tolerance: float = eqx.field(static=True, default=1e-4)
+    range_bands: int = eqx.field(static=True, default=2)
+    engine: str = eqx.field(static=True, default="nufft")
+    stop_and_go: bool = eqx.field(static=True, default=True)
+    pulse_chunk: int = eqx.field(static=True, default=1)
+    memory_budget: int = eqx.field(static=True, default=512 * 2**20)
+    loops: int = eqx.field(static=True, default=2)
+    range_fft_size: int | None = eqx.field(static=True, default=None)
+    general: bool | None = eqx.field(static=True, default=None)
+
+    def prepare(self, radar, scene, acquisition):
+        """Check the options; fix the range FFT size and the model branch."""
+        kernel_width(self.tolerance)
+        if self.engine not in ("nufft", "direct"):
+            raise ValueError(f"engine={self.engine!r} must be 'nufft' or 'direct'")
+        if not (isinstance(self.range_bands, int) and 0 <= self.range_bands <= 8):
+            raise ValueError(f"range_bands={self.range_bands!r} must be an integer in 0…8")
+        general = TimeDomain(stop_and_go=self.stop_and_go, general=self.general).prepare(
+            radar, scene, acquisition).general
+        n_r = self.range_fft_size or next_fast_len(
+            acquisition.num_range + int(float(radar.chirp_samples)) + 2)
+        return dataclasses.replace(self, range_fft_size=n_r, general=general)
+
+    def sizes(self, num_range):
+        """(n_r, bands Q/n_r, grid G, kernel width w) of one pulse's transform."""
+        n_r = self.range_fft_size or next_fast_len(2 * num_range)
+        bands = 2 * self.range_bands + 1
+        width = kernel_width(self.tolerance)
+        grid = next_fast_len(2 * bands * n_r)
+        return n_r, bands, grid, width
+
+    def chunk(self, num_pulses, num_range, num_scatterers, dtype):
+        """``pulse_chunk``, reduced to fit ``memory_budget`` (about 12 float64 per
+        scatterer plus the w spread values, and the grid, per pulse)."""
+        n_r, bands, grid, width = self.sizes(num_range)
+        itemsize = jnp.dtype(dtype).itemsize
+        per_pulse = num_scatterers * (12 * 8 + 2 * width * (8 + itemsize)) + 4 * grid * 16
+        if self.engine == "direct":
+            per_pulse += num_scatterers * bands * n_r * 16
+        fit = self.memory_budget // max(per_pulse, 1)
+        return int(max(1, min(num_pulses, self.pulse_chunk, fit)))
+
+    def __call__(self, radar, scene, motion, acquisition, dtype):
+        if isinstance(scene, ReflectivityGrid):
+            scene = scene.to_points()
+        n_range = acquisition.num_range
+        n_r, bands, grid, width = self.sizes(n_range)
+        modes = bands * n_r
+        coefficients, _ = spreading_kernel(width, grid / modes)
+        deconvolve = jnp.asarray(1.0 / kernel_transform(width, grid / modes, grid, modes))
+        # mode q (FFT order of the Q = bands·n_r modes) sits at grid frequency q mod G
+        q = np.fft.fftfreq(modes, 1.0 / modes).astype(np.int64)
+        grid_index = jnp.asarray(np.mod(q, grid))
+        dr = radar.range_spacing
+        eta = jnp.asarray(q) * (_TWO_PI / n_r) / dr  # η_q [rad/m]
+        chirp = chirp_spectrum(radar, eta) / dr  # (Q,) C(η_q)/Δr
+        transfer = (chirp * deconvolve).astype(dtype)
+        near = acquisition.near_range
+        k0 = radar.wavenumber
+        carrier = jnp.mod(k0 * scene.range, _TWO_PI)  # k₀ r mod 2π, once per scatterer
+        window = (n_range - 1) * dr
+        half = radar.pulse_half_length
+        real = jnp.finfo(dtype).dtype
+        # a visible echo centre lies in (−cτ/4, window + cτ/4), and n_r Δr exceeds the
+        # window by more than cτ/2: its cell is within (−G/2, G)
+        reach = grid / 2
+
+        targets = (scene.azimuth, scene.range, scene.height, scene.reflectivity,
+                   scene.velocity_range, scene.velocity_azimuth)
+        x_pulse = acquisition.pulse_azimuths(radar)
+        horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
+
+        def echo_geometry(pulse):
+            """(ρ − r'_0 [m], a_P) of every scatterer for one pulse."""
+            if self.general:
+                offset, (along, moved, los) = echo_range_offset(
+                    radar, pulse, targets, self.stop_and_go)
+                u = pattern_argument(radar, pulse[3], along, moved, los)
+            else:
+                x_p, dy, dz, daz = pulse
+                los = geometry.line_of_sight_deviation(
+                    dy, dz, scene.range, scene.height, radar.height)
+                along = x_p - scene.azimuth
+                offset = geometry.range_offset(along, scene.range, los)
+                u = (along - (scene.range + los) * daz) / radar.footprint(scene.range)
+            position = (scene.range - near) + offset  # ρ − r'_0
+            visible = (position > -half) & (position < window + half)
+            gain = jnp.where(visible, radar.pattern(u), 0.0)
+            amplitude = scene.reflectivity * gain * unit_phasor(-(carrier + k0 * offset))
+            return position, amplitude.astype(dtype)
+
+        def one_pulse(pulse):
+            position, amplitude = echo_geometry(pulse)
+            if self.engine == "direct":
+                phase = -jnp.outer(eta, position)  # (Q, n)
+                spectrum = (unit_phasor(phase.astype(real)) @ amplitude) * chirp.astype(dtype)
+            else:
+                cells = position * (grid / (n_r * dr))  # t = G θ / 2π, θ = Δη (ρ − r'_0)
+                spread = _spread(cells, amplitude, width, grid, coefficients, reach)
+                spectrum = jnp.fft.fft(spread)[grid_index] * transfer
+            folded = spectrum.reshape(bands, n_r).sum(axis=0)  # Σ_m over the bands
+            return jnp.fft.ifft(folded)[:n_range]
+
+        pulses = (x_pulse, horizontal, vertical, pointing)
+        chunk = self.chunk(acquisition.num_pulses, n_range, scene.num_scatterers, dtype)
+        return map_pulses(one_pulse, pulses, chunk, self.loops).astype(dtype)
+
+
+def map_pulses(kernel, pulses, chunk, loops):
+    """The one place the one-pulse kernel is mapped over pulses: ``loops`` independent
+    sequential loops over contiguous pulse ranges (they can run concurrently), each
+    evaluating ``chunk`` pulses together (vmapped). XLA's scatter-add runs ~4× faster
+    unbatched, so ``chunk=1`` is the default."""
+    n = pulses[0].shape[0]
+    per_loop = -(-n // max(1, loops))
+    parts = []
+    for start in range(0, n, per_loop):
+        part = tuple(p[start:start + per_loop] for p in pulses)
+        size = min(per_loop, n - start)
+        parts.append(jax.lax.map(kernel, part, batch_size=chunk if chunk > 1 else None)
+                     if size > 1 else kernel(tuple(p[0] for p in part))[None])
+    return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=0)
