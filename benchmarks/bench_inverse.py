@@ -213,7 +213,6 @@ def main():
     lines = []
     log = lambda s: (print(s, flush=True), lines.append(s))
     radar, scene = setup()
-    lam = float(radar.wavelength)
     load0 = os.getloadavg()[0]
     cases = {}
     for label, rms in (("A", 0.02), ("B", 0.5)):
@@ -239,7 +238,7 @@ def main():
           "first fit (compile) [s] |",
           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for label, rows in cases.items():
-        e = lambda k: max(abs(r["err"][k]) for r in rows)
+        e = lambda k, rows=rows: max(abs(r["err"][k]) for r in rows)
         c = rows[0]["crb"]
         t = [r["seconds"] for r in rows]
         md.append(
