@@ -267,3 +267,26 @@ def test_bad_data_and_scene():
         bad[3, 4] = np.nan
         sj.fit_motion(radar, scene, sj.RawData(data=bad, azimuth=raw.azimuth,
                                                range=raw.range))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rms, seed", [(0.02, 21), (0.5, 21), (0.5, 22)])
+def test_acceptance_cases_full_size(rms, seed):
+    """Acceptance cases A (2 cm) and B (0.5 m) on the preset grid at 0 dB, extra seeds (the
+    20-seed runs are in benchmarks/bench_inverse.py)."""
+    radar = sj.presets.airborne_xband()
+    scene = sj.PointTargets(**SCENE)
+    truth, jitter, rng = _truth(radar, rms, key=seed)
+    raw, noise_power = _noisy(radar, scene, truth, rng)
+    result = sj.fit_motion(radar, scene, raw)
+    lam = float(radar.wavelength)
+    ey, ez, _ = inv.align(result.motion, truth, result)
+    s0, c0 = result.reference_direction
+    bound = sj.crb(radar, scene, noise_power=noise_power, motion=truth, jitter=jitter)
+    assert _rms(-s0 * ey + c0 * ez) <= lam / 20
+    assert _rms(ey) <= max(lam / 10, 1.5 * bound.rms["horizontal"])
+    assert _rms(ez) <= max(lam / 10, 1.5 * bound.rms["vertical"])
+    amplitude, period, phase = jitter
+    assert abs(result.jitter["amplitude"] / amplitude - 1) < 0.05
+    assert abs(result.jitter["period"] / period - 1) < 0.01
+    assert abs(np.angle(np.exp(1j * (result.jitter["phase"] - phase)))) < 0.1
