@@ -45,6 +45,39 @@ def sinc_interpolate(values, positions, *, taps: int = 12, periodic: bool = Fals
         (..., m) interpolated values.
     """
     n = values.shape[-1]
+    base, weights, offsets = _sinc_weights(positions, taps)
+    index = base.astype(jnp.int32)[..., None] + offsets
+    if periodic:
+        return jnp.sum(weights * _gather(values, jnp.mod(index, n)), axis=-1)
+    valid = (index >= 0) & (index < n)
+    gathered = _gather(values, jnp.clip(index, 0, n - 1))
+    return jnp.sum(jnp.where(valid, weights, 0.0) * gathered, axis=-1)
+
+
+def sinc_interpolate_rows(table, positions, *, taps: int = 8):
+    """Periodic windowed-sinc interpolation of each row of ``table``, output transposed.
+
+    ``out[c, i]`` interpolates row ``i`` of ``table`` (periodic) at ``positions[c, i]``;
+    same kernel as :func:`sinc_interpolate`. Producing the (column, row) layout directly
+    lets the consumer transform along the rows' axis without a transpose of a fused
+    interpolation (XLA would recompute it per consumer, with strided reads).
+
+    Args:
+        table: (n_rows, p) one period per row.
+        positions: (m, n_rows) fractional positions along the rows.
+
+    Returns:
+        (m, n_rows).
+    """
+    n_rows, p = table.shape
+    base, weights, offsets = _sinc_weights(positions, taps)
+    index = jnp.mod(base.astype(jnp.int32)[..., None] + offsets, p)  # (m, n_rows, taps)
+    flat = index + (jnp.arange(n_rows, dtype=jnp.int32) * p)[None, :, None]
+    return jnp.sum(weights * table.reshape(-1)[flat], axis=-1)
+
+
+def _sinc_weights(positions, taps):
+    """(floor(positions), (..., taps) kernel weights, (…, taps) integer tap offsets)."""
     half = taps // 2
     base = jnp.floor(positions)
     frac = positions - base
@@ -55,12 +88,7 @@ def sinc_interpolate(values, positions, *, taps: int = 12, periodic: bool = Fals
     tiny = jnp.abs(distance) < 1e-12
     sinc = jnp.where(tiny, 1.0, sin_term / (jnp.pi * jnp.where(tiny, 1.0, distance)))
     window = jnp.clip(1.0 - (distance / half) ** 2, 0.0, 1.0) ** 3
-    index = base.astype(jnp.int32)[..., None] + offsets
-    if periodic:
-        return jnp.sum(sinc * window * _gather(values, jnp.mod(index, n)), axis=-1)
-    valid = (index >= 0) & (index < n)
-    gathered = _gather(values, jnp.clip(index, 0, n - 1))
-    return jnp.sum(jnp.where(valid, sinc * window, 0.0) * gathered, axis=-1)
+    return base, sinc * window, offsets
 
 
 def _gather(values, index):

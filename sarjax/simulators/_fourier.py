@@ -46,7 +46,7 @@ import numpy as np
 
 from .. import geometry
 from .._phasor import unit_phasor
-from ..processing._interpolation import next_fast_len, sinc_interpolate
+from ..processing._interpolation import next_fast_len, sinc_interpolate_rows
 from ..scene import PointTargets, ReflectivityGrid
 from ._base import AbstractSimulator
 
@@ -150,10 +150,10 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
     Args:
         lines: (n_lines, n_x) F_j(ξ), one row per range line.
         line_ranges: (n_lines,) r_j [m].
-        kappa: (n_x, n_c) κ(ξ, η) [rad/m].
+        kappa: (n_c, n_x) κ(ξ, η) [rad/m].
 
     Returns:
-        ((n_x, n_c) Σ_j F_j(ξ) e^{−jκ (r_j − r_ref)}, r_ref = r_0 [m]); the caller applies
+        ((n_c, n_x) Σ_j F_j(ξ) e^{−jκ (r_j − r_ref)}, r_ref = r_0 [m]); the caller applies
         ``e^{−jκ r_ref}`` (together with the other per-(ξ, η) factors, in one pass).
     """
     n_lines = lines.shape[0]
@@ -169,7 +169,7 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
     def body(acc, block):
         f, r = block  # (chunk, n_x), (chunk,)
         phase = kappa[None, :, :] * (r - r_ref)[:, None, None]
-        return acc + jnp.sum(f[:, :, None] * unit_phasor(-phase), axis=0), None
+        return acc + jnp.sum(f[:, None, :] * unit_phasor(-phase), axis=0), None
 
     init = jnp.zeros(kappa.shape, lines.dtype)
     out, _ = jax.lax.scan(body, init, (lines_p, ranges_p))
@@ -196,15 +196,20 @@ def synthesize_grid(dtft, line_ranges, kappa, taps=8):
     ``Σ_j F_j e^{−jκ r_j} = e^{−jκ r_c} D(κ Δr)``, D from :func:`grid_dtft` interpolated
     with a windowed sinc at the non-uniform ``κ Δr``.
 
+    Args:
+        dtft: (n_x, p) from :func:`grid_dtft`.
+        line_ranges: (n_lines,) r_j [m].
+        kappa: (n_c, n_x) κ(ξ, η) [rad/m].
+
     Returns:
-        ((n_x, n_c) D(ξ, κ Δr), r_c = range of the middle line [m]); the caller applies
+        ((n_c, n_x) D(ξ, κ Δr), r_c = range of the middle line [m]); the caller applies
         ``e^{−jκ r_c}``.
     """
     p = dtft.shape[1]
     centre = line_ranges.shape[0] // 2
     step = line_ranges[1] - line_ranges[0]
     position = kappa * step * (p / (2 * jnp.pi))
-    return sinc_interpolate(dtft, position, taps=taps, periodic=True), line_ranges[centre]
+    return sinc_interpolate_rows(dtft, position, taps=taps), line_ranges[centre]
 
 
 def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *, pad,
@@ -219,7 +224,7 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
     products) stays in cache; the blocks run in ``loops`` independent loops.
 
     Args:
-        produce: (size,) η → list of (n_x, size) spectra A_i(ξ, η).
+        produce: (size,) η → list of (size, n_x) spectra A_i(ξ, η).
         terms: list of (array index i, per-ξ weight (n_x,) or None, power n of s).
         eta: (n_c,) range wavenumbers of the columns [rad/m].
         delta_r: (num_pulses,) δr(x') [m], or None for no per-pulse motion.
@@ -233,7 +238,7 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
     n_c = eta.shape[0]
 
     def run(eta_block):
-        block_arrays = [a.T for a in produce(eta_block)]
+        block_arrays = produce(eta_block)
         acc = 0.0
         for index, weight, power in terms:
             values = block_arrays[index]
@@ -577,8 +582,8 @@ class _FourierBase(AbstractSimulator):
             n_sets = len(line_sets) if m == 0 else 1
 
             def produce(eta_block, taps=taps, n_sets=n_sets):
-                """(n_x, size) spectra for the columns η of one block."""
-                kappa = kappa_fn(radar, xi[:, None], eta_block[None, :])
+                """(size, n_x) spectra for the columns η of one block."""
+                kappa = kappa_fn(radar, xi[None, :], eta_block[:, None])
 
                 def synth(table):
                     if gridded:
@@ -590,9 +595,9 @@ class _FourierBase(AbstractSimulator):
                 for q in range(n_sets):
                     rel, r_ref = synth(dtfts[q])
                     if q == 0 and env_dtft is not None:
-                        rel = rel + (-1j * eta_block)[None, :] * synth(env_dtft)[0]
+                        rel = rel + (-1j * eta_block)[:, None] * synth(env_dtft)[0]
                     out.append(rel)
-                phase = unit_phasor(-kappa * r_ref) * (factor / radar.range_spacing)[None, :]
+                phase = unit_phasor(-kappa * r_ref) * (factor / radar.range_spacing)[:, None]
                 return [rel * phase for rel in out]
 
             if mode == "moderate":
