@@ -45,6 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
+from .._phasor import _sin_cos, unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
@@ -154,8 +155,8 @@ def _broadside_static_phasors(radar, pulse, targets):
     offset = geometry.range_offset(along_track, slant_range, los)  # R − r [m]
     u = (along_track - (slant_range + los) * pointing) / radar.footprint(slant_range)
     k0 = radar.wavenumber
-    phase = jnp.mod(jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset, _TWO_PI)
-    amplitude = reflectivity * radar.pattern(u) * jnp.exp(-1j * phase)
+    phase = jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset
+    amplitude = reflectivity * radar.pattern(u) * unit_phasor(-phase)
     return offset, amplitude
 
 
@@ -179,9 +180,10 @@ def scatterer_phasors(radar, pulse, targets, stop_and_go=True):
     offset, (along, moved_range, los) = echo_range_offset(radar, pulse, targets, stop_and_go)
     u = pattern_argument(radar, pulse[3], along, moved_range, los)
     k0 = radar.wavenumber
-    # 4πρ/λ mod 2π, formed from the exact decomposition ρ = r + (ρ − r) in float64.
-    phase = jnp.mod(jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset, _TWO_PI)
-    amplitude = reflectivity * radar.pattern(u) * jnp.exp(-1j * phase)
+    # 4πρ/λ, formed from the exact decomposition ρ = r + (ρ − r) in float64 (k₀ r reduced
+    # mod 2π; unit_phasor reduces the rest)
+    phase = jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset
+    amplitude = reflectivity * radar.pattern(u) * unit_phasor(-phase)
     return offset, amplitude
 
 
@@ -208,9 +210,11 @@ def pulse_echo(radar, pulse, targets, range_axis_offset, dtype, stop_and_go=True
     b = radar.chirp_rate.astype(real)
     phase = b * delta * delta
     inside = jnp.abs(delta) < half
-    # cos/sin with the mask beats exp(1j·) on CPU (bit-identical)
-    chirp = jax.lax.complex(jnp.where(inside, jnp.cos(phase), 0.0),
-                            jnp.where(inside, -jnp.sin(phase), 0.0)).astype(dtype)
+    # sin/cos from multiply-adds (sarjax._phasor; XLA's libm calls cost ~20 ns each on
+    # CPU), masked to the pulse
+    sin_phase, cos_phase = _sin_cos(phase)
+    chirp = jax.lax.complex(jnp.where(inside, cos_phase, 0.0),
+                            jnp.where(inside, -sin_phase, 0.0)).astype(dtype)
     weights = amplitude.astype(dtype)
     if weights.shape[0] <= 3:
         return jnp.sum(weights[:, None] * chirp, axis=0)
