@@ -20,15 +20,17 @@ from .simulators import (
     TimeDomain,
     TimeDomainNUFFT,
 )
+from .simulators._squint import SquintModerateDeviation, SquintSmallDeviation
 
 _METHODS = {
     "time_domain": TimeDomain,
     "time_domain_nufft": TimeDomainNUFFT,
     "fourier_2d": Fourier2D,
-    "small_deviation": SmallDeviation,
-    "algorithm_a": SmallDeviation,
-    "moderate_deviation": ModerateDeviation,
-    "algorithm_b": ModerateDeviation,
+    # at any squint (broadside: the broadside classes, unchanged)
+    "small_deviation": SquintSmallDeviation,
+    "algorithm_a": SquintSmallDeviation,
+    "moderate_deviation": SquintModerateDeviation,
+    "algorithm_b": SquintModerateDeviation,
     "high_speed": HighSpeed,
     "chirp_scaling": ChirpScaling,
 }

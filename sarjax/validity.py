@@ -117,6 +117,30 @@ def _pattern_remainder_coefficient(pattern, order):
     return float(jnp.max(jnp.abs(jnp.vectorize(f)(u)))) / math.factorial(order + 1)
 
 
+def _at_pulse(values, x, x_p, dx):
+    """(scatterer,) per-(pulse, scatterer) ``values`` linearly interpolated at the pulse
+    position ``x`` of each scatterer (pulses x_p spaced dx; edge values outside)."""
+    n = x_p.size
+    position = np.clip((x - x_p[0]) / dx, 0.0, n - 1.0)
+    i0 = np.minimum(np.floor(position).astype(int), max(n - 2, 0))
+    t = position - i0
+    cols = np.arange(x.size)
+    i1 = np.minimum(i0 + 1, n - 1)
+    return values[i0, cols] * (1 - t) + values[i1, cols] * t
+
+
+def _pointing_budget(radar, pointing, method, pointing_order):
+    """(``epsilon_az`` budget, max|δ_az| L/λ) of the pointing expansion (seed eq. 21, 37)."""
+    lam, L = float(radar.wavelength), float(radar.antenna_length)
+    pointing_ratio = float(np.max(np.abs(pointing))) * L / lam
+    order = 0 if method == "fourier_2d" else pointing_order
+    coef = _pattern_remainder_coefficient(radar.pattern, order)
+    peak = float(radar.pattern(jnp.asarray(0.0)))
+    pattern_error = coef * pointing_ratio ** (order + 1) / peak
+    return Budget("epsilon_az", pattern_error, PATTERN_THRESHOLD,
+                  f"pointing expansion remainder, order {order} (seed eq. 21, 37)"), pointing_ratio
+
+
 def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_center=0.0,
              pointing_order=2, coupling_order=3, envelope_correction=True) -> Validity:
     """Validity budgets of ``method`` for this acquisition, without simulating.
@@ -143,6 +167,9 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_cent
         raise ValueError(f"unknown method={method!r}; choose one of {_APPROXIMATE + ('time_domain',)}")
     motion = Motion() if motion is None else motion
     n = radar.num_pulses if num_pulses is None else num_pulses
+    if float(np.asarray(radar.squint)) != 0.0:
+        return _squinted_validity(radar, scene, motion, method, n, azimuth_center,
+                                  pointing_order, coupling_order, envelope_correction)
     dx = float(radar.azimuth_spacing)
     x_p = azimuth_center + (np.arange(n) - (n - 1) / 2) * dx
     dy, dz, daz = (np.asarray(v, float) for v in motion.resolve(n))
@@ -169,11 +196,6 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_cent
         return float(np.max(np.abs(np.where(lobe, a, 0.0)))) if lobe.any() else 0.0
 
     budgets = []
-    pointing_ratio = float(np.max(np.abs(daz))) * L / lam
-    order = 0 if method == "fourier_2d" else pointing_order
-    coef = _pattern_remainder_coefficient(radar.pattern, order)
-    peak = float(radar.pattern(jnp.asarray(0.0)))
-    pattern_error = coef * pointing_ratio ** (order + 1) / peak
     if method == "fourier_2d":
         budgets.append(Budget("epsilon_motion", k0 * lobe_max(los), PHASE_THRESHOLD,
                               "(4π/λ) max|δr_xr|: the deviation is not modelled"))
@@ -183,13 +205,7 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_cent
         budgets.append(Budget("epsilon_12", eta_max * lobe_max(psi), PHASE_THRESHOLD,
                               "η_max max|ψ| (seed eq. 12)"))
         # ψ(x, r): at the pulse above the scatterer
-        position = np.clip((xs - x_p[0]) / dx, 0.0, n - 1.0)
-        i0 = np.minimum(np.floor(position).astype(int), max(n - 2, 0))
-        t = position - i0
-        cols = np.arange(xs.size)
-        i1 = np.minimum(i0 + 1, n - 1)
-        psi_at_target = psi[i0, cols] * (1 - t) + psi[i1, cols] * t
-        diff = psi - psi_at_target[None, :]
+        diff = psi - _at_pulse(psi, xs, x_p, dx)[None, :]
         budgets.append(Budget("epsilon_13", k0 * lobe_max(diff), PHASE_THRESHOLD,
                               "(4π/λ) max|ψ(x', r) − ψ(x, r)| (seed eq. 13)"))
     else:  # moderate deviation
@@ -216,8 +232,102 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_cent
         else:
             budgets.append(Budget("epsilon_12", e12, PHASE_THRESHOLD,
                                   "η_max max(|ψ| + |x'−x||∂ψ/∂x'|) (seed eq. 12)"))
-    budgets.append(Budget("epsilon_az", pattern_error, PATTERN_THRESHOLD,
-                          f"pointing expansion remainder, order {order} (seed eq. 21, 37)"))
+    pointing_budget, pointing_ratio = _pointing_budget(radar, daz, method, pointing_order)
+    budgets.append(pointing_budget)
+    return Validity(method, tuple(budgets), pointing_ratio)
+
+
+def _squinted_validity(radar, scene, motion, method, n, azimuth_center, pointing_order,
+                       coupling_order, envelope_correction) -> Validity:
+    """Budgets of the squinted Fourier simulators (``sarjax.simulators._squint``; seed 002
+    eq. 10–11, 45–46, 50), evaluated like the broadside ones over the pulses within the
+    squinted main lobe, ``|u| ≤ 1`` with ``u = (L/λ)(a/r + T)/(1 − aT/r)``.
+
+    With ``c = r/R_n`` the cosine of the look direction, ``c_d = cos φ_d``, ``a = x' − x``:
+
+    * small deviation: ``epsilon_11 = (4π/λ) max|R − R_n − c_d δr_xr|`` (the coupling, first
+      order in the beam angle at squint); ``epsilon_12 = η_max max(|ψ|/c + |δr||1/c − 1/c_d|)``
+      (the envelope of ψ and the per-pulse envelope slope taken at the centroid);
+      ``epsilon_13 = (4π/λ) c_d max|ψ(x', r) − ψ(x_c, r)|``, ψ moved onto the scene at the
+      beam-centre pulse ``x_c = x − r tan φ_d``.
+    * moderate deviation: ``epsilon_11`` = the coupling left by the Taylor series of
+      ``(√(k₀² − ξ²) − k₀ c_d) δr_xr`` over the PRF band about ξ_d, plus
+      ``(4π/λ) max|R − R_n − δr_xr r/R_n|``; ``epsilon_12`` = the squared first-order
+      envelope terms over 2 (``|ψ|/c`` and the migration ``c_d |a| |∂ψ/∂x'| / c²``, both
+      corrected) plus the uncorrected ones: ``|δr||1/c − 1/c_d|`` and the migration of the
+      coupling's Doppler shift, ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``.
+    * fourier_2d: broadside only (``epsilon_squint``, never within budget).
+    """
+    dx = float(radar.azimuth_spacing)
+    x_p = azimuth_center + (np.arange(n) - (n - 1) / 2) * dx
+    dy, dz, daz = (np.asarray(v, float) for v in motion.resolve(n))
+    lam = float(radar.wavelength)
+    k0 = 4 * np.pi / lam
+    eta_max = 2 * np.pi / lam * float(radar.bandwidth) / float(radar.carrier_frequency)
+    L = float(radar.antenna_length)
+    squint = float(np.asarray(radar.squint))
+    T, c_d = math.tan(squint), math.cos(squint)
+
+    xs, rs, hs = _scene_samples(scene)
+    along = x_p[:, None] - xs[None, :]
+    u = L / lam * (along / rs[None, :] + T) / (1 - along * T / rs[None, :])
+    lobe = np.abs(u) <= 1.0
+    los = np.asarray(geometry.line_of_sight_deviation(
+        dy[:, None], dz[:, None], rs[None, :], hs[None, :], float(radar.height)))
+    delta_r = np.asarray(geometry.reference_deviation(dy, dz, radar))[:, None]
+    psi = los - delta_r
+    nominal = np.sqrt(rs[None, :] ** 2 + along**2)
+    exact = rs[None, :] + np.asarray(geometry.range_offset(along, rs[None, :], los))
+    cos_look = rs[None, :] / nominal
+
+    def lobe_max(a):
+        return float(np.max(np.abs(np.where(lobe, a, 0.0)))) if lobe.any() else 0.0
+
+    budgets = []
+    slope_mismatch = np.abs(delta_r) * np.abs(1 / cos_look - 1 / c_d)
+    if method == "fourier_2d":
+        budgets.append(Budget("epsilon_squint", abs(squint), 0.0,
+                              "|φ_d|: method='fourier_2d' simulates a broadside beam"))
+    elif method == "small_deviation":
+        budgets.append(Budget("epsilon_11", k0 * lobe_max(exact - nominal - c_d * los),
+                              PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr|"))
+        budgets.append(Budget("epsilon_12",
+                              eta_max * lobe_max(np.abs(psi) / cos_look + slope_mismatch),
+                              PHASE_THRESHOLD, "η_max max(|ψ|/c + |δr||1/c − 1/c_d|)"))
+        psi_beam = _at_pulse(psi, xs - rs * T, x_p, dx)  # ψ at the beam-centre pulse
+        budgets.append(Budget("epsilon_13", k0 * c_d * lobe_max(psi - psi_beam[None, :]),
+                              PHASE_THRESHOLD,
+                              "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed 002 eq. 10)"))
+    else:  # moderate deviation
+        xi_d = k0 * math.sin(squint)
+        xi_band = xi_d + np.linspace(-np.pi / dx, np.pi / dx, 257)
+        alpha_band = np.abs(np.sqrt(k0**2 - xi_band**2) - k0 * c_d)
+        exact_rest = k0 * lobe_max(exact - nominal - los * cos_look)
+        if coupling_order:
+            spread = lobe_max(los - np.mean(los, axis=0, keepdims=True))
+            value = (float(alpha_band.max()) * spread) ** (coupling_order + 1) / math.factorial(
+                coupling_order + 1) + exact_rest
+            meaning = f"coupling after its order-{coupling_order} correction"
+        else:
+            value = k0 * lobe_max(exact - nominal - c_d * los)
+            meaning = "(4π/λ) max|R − R_n − cos φ_d δr_xr|"
+        budgets.append(Budget("epsilon_11", value, PHASE_THRESHOLD, meaning))
+        # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n
+        alpha = np.abs(np.sqrt(k0**2 - (k0 * along / nominal) ** 2) - k0 * c_d)
+        los_slope = np.gradient(los, dx, axis=0)
+        psi_slope = np.gradient(psi, dx, axis=0)
+        corrected = np.abs(psi) / cos_look + c_d * np.abs(along * psi_slope) / cos_look**2
+        uncorrected = slope_mismatch + np.abs(along) * alpha * np.abs(los_slope) / (
+            k0 * cos_look**2)
+        if envelope_correction:
+            value = (eta_max * lobe_max(corrected)) ** 2 / 2 + eta_max * lobe_max(uncorrected)
+            meaning = "envelope terms after the first-order correction"
+        else:
+            value = eta_max * lobe_max(corrected + uncorrected)
+            meaning = "η_max max(envelope terms) (seed 002 eq. 11)"
+        budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning))
+    pointing_budget, pointing_ratio = _pointing_budget(radar, daz, method, pointing_order)
+    budgets.append(pointing_budget)
     return Validity(method, tuple(budgets), pointing_ratio)
 
 
