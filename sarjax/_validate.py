@@ -80,18 +80,39 @@ def check_scene(scene, radar):
 
 
 def check_motion(motion, num_pulses):
+    """Each given component is (num_pulses,) or, for a batch of B realizations,
+    (B, num_pulses) with one B for every batched component. Returns B (None: unbatched)."""
+    batch, first = None, None
     for name in ("horizontal", "vertical", "pointing"):
         v = getattr(motion, name)
         if v is None:
             continue
-        if v.ndim != 1 or v.shape[-1] != num_pulses:
+        if v.ndim not in (1, 2) or v.shape[-1] != num_pulses:
             raise ValueError(
-                f"motion.{name} has shape {v.shape}, expected ({num_pulses},): one value per pulse"
+                f"motion.{name} has shape {v.shape}, expected ({num_pulses},): one value per "
+                f"pulse (or (batch, {num_pulses}) for a batch of realizations)"
             )
+        if v.ndim == 2:
+            if v.shape[0] == 0:
+                raise ValueError(f"motion.{name} has shape {v.shape}: a batch of 0 realizations")
+            if batch is not None and v.shape[0] != batch:
+                raise ValueError(
+                    f"motion.{name} has shape {v.shape} but motion.{first} has {batch} "
+                    "realizations: batched components need the same leading (batch) axis"
+                )
+            batch, first = v.shape[0], name
         c = _concrete(v)
         if c is not None and not np.all(np.isfinite(c)):
-            bad = np.flatnonzero(~np.isfinite(c))[:5]
-            raise ValueError(f"motion.{name} has non-finite values {c[bad]} at pulses {bad}")
+            if c.ndim == 1:
+                bad = np.flatnonzero(~np.isfinite(c))[:5]
+                raise ValueError(f"motion.{name} has non-finite values {c[bad]} at pulses {bad}")
+            rows, cols = np.nonzero(~np.isfinite(c))
+            rows, cols = rows[:5], cols[:5]
+            raise ValueError(
+                f"motion.{name} has non-finite values {c[rows, cols]} at (realization, pulse) "
+                f"{list(zip(rows.tolist(), cols.tolist()))}"
+            )
+    return batch
 
 
 def check_grid(num_pulses, num_range):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 
+from .. import _memory
 from .._data import Image, RawData
 from ..motion import Motion
 from . import _motion_compensation as moco
@@ -72,6 +73,7 @@ def focus(
     azimuth_weighting: str = "uniform",
     stop_and_go: bool = True,
     acquisition_doppler: bool = False,
+    memory_limit=None,
 ) -> Image:
     """Focus raw data into a complex image (physics.md §11).
 
@@ -101,6 +103,11 @@ def focus(
         acquisition_doppler: ``"exact_backprojection"`` only: ``azimuth``/``range`` are
             Acquisition-Doppler coordinates (beam-centre crossing azimuth, range along the
             beam centre; seed 002 eq. 1) instead of closest-approach ones.
+        memory_limit: bound on the estimated peak memory, bytes or e.g. ``"2GiB"``
+            (default: ``$SARJAX_MEMORY_LIMIT``, else half the available memory; see
+            :mod:`sarjax._memory`). Focusing is not chunked further: over the limit it
+            raises :class:`sarjax._memory.MemoryLimitError` (a MemoryError and ValueError)
+            stating the estimate and the limit.
 
     Returns:
         :class:`~sarjax.Image` on (x, r); a target at (x, r) focuses there with phase
@@ -117,6 +124,14 @@ def focus(
     if data.ndim != 2:
         raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
     n_fft = range_fft_length(radar, data.shape[-1])
+    if method in ("omega_k", "backprojection", "exact_backprojection"):
+        image_shape = (data.shape[0] if azimuth is None else int(jnp.size(azimuth)),
+                       data.shape[1] if range is None else int(jnp.size(range)))
+        estimate = _memory.focus_estimate(method, data.shape[0], data.shape[1], n_fft,
+                                          image_shape=image_shape, upsample=upsample)
+        limit = _memory.memory_limit(memory_limit)
+        if estimate.total > limit:
+            _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
     if method == "omega_k":
         order = None if motion.is_ideal else (motion_compensation or "none")
         image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft, azimuth_weighting == "uniform")

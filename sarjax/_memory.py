@@ -1,0 +1,314 @@
+"""Peak-memory estimates and the memory limit of a :func:`sarjax.simulate` or
+:func:`sarjax.focus` call.
+
+Every call estimates its peak memory before any work, from the array sizes and the dtype:
+
+    peak = output + inputs + workspace(batch_chunk),
+
+``output`` the result (all realizations of a batch), ``inputs`` the scene and motion arrays
+and ``workspace`` the intermediates of the ``batch_chunk`` realizations evaluated together
+(the simulator's chunk sizes set it: pulses × scatterers × range samples for the exact
+model, the padded (ξ, η) grid for the Fourier methods). The per-method workspaces are upper
+bounds of what XLA allocates (``Compiled.memory_analysis()``; tests/test_memory.py checks
+them within a factor 1–4).
+
+The limit is, in order: the ``memory_limit=`` argument, the ``SARJAX_MEMORY_LIMIT``
+environment variable (bytes, ``"512MiB"``, ``"2GB"`` …), or :data:`DEFAULT_FRACTION` of the
+memory available now (``MemAvailable`` of ``/proc/meminfo``, else ``os.sysconf``; on
+accelerators, the free memory of the devices used). Over the limit the caller chunks
+(smaller pulse / scatterer chunks, fewer realizations at a time); when even the smallest
+chunks do not fit, it raises :class:`MemoryLimitError` stating the estimate and the limit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from typing import NamedTuple
+
+import jax
+import numpy as np
+
+from .processing._interpolation import next_fast_len
+
+ENV_LIMIT = "SARJAX_MEMORY_LIMIT"
+DEFAULT_FRACTION = 0.5  # of the memory available at the call
+
+_UNITS = {
+    "": 1, "b": 1,
+    "k": 10**3, "kb": 10**3, "m": 10**6, "mb": 10**6, "g": 10**9, "gb": 10**9,
+    "t": 10**12, "tb": 10**12,
+    "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40,
+}
+
+
+class MemoryLimitError(MemoryError, ValueError):
+    """A call whose estimated peak memory exceeds the limit even at its smallest chunks."""
+
+
+class Estimate(NamedTuple):
+    """Estimated peak memory of one call [bytes].
+
+    Attributes:
+        output: the result (every realization of a batch).
+        inputs: scene, motion and other input arrays.
+        workspace: intermediates of the realizations evaluated together.
+    """
+
+    output: int
+    inputs: int
+    workspace: int
+
+    @property
+    def total(self) -> int:
+        """output + inputs + workspace [bytes]."""
+        return int(self.output + self.inputs + self.workspace)
+
+
+def format_bytes(n) -> str:
+    """``n`` bytes as a short human-readable string (binary units)."""
+    n = float(n)
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if abs(n) < 1024 or unit == "GiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} GiB"
+
+
+def parse_bytes(value, name="memory_limit") -> int:
+    """A memory size: a number of bytes (int or float) or a string such as ``"512MiB"``,
+    ``"2 GB"``, ``"1.5g"`` (SI and binary units). Raises ValueError naming ``name``."""
+    if isinstance(value, bool):
+        raise ValueError(f"{name}={value!r} is not a memory size")
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        number = float(value)
+    elif isinstance(value, str):
+        match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*", value)
+        unit = match.group(2).lower() if match else None
+        if match is None or unit not in _UNITS:
+            raise ValueError(
+                f"{name}={value!r} is not a memory size (e.g. 2000000000, '512MiB', '2GB')"
+            )
+        number = float(match.group(1)) * _UNITS[unit]
+    else:
+        raise ValueError(f"{name}={value!r} is not a memory size")
+    if not math.isfinite(number) or number <= 0:
+        raise ValueError(f"{name}={value!r} must be a positive, finite number of bytes")
+    return int(number)
+
+
+def available_memory() -> int | None:
+    """Host memory available now [bytes]: ``MemAvailable`` from ``/proc/meminfo``, else
+    ``os.sysconf`` available pages; None when neither can be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _device_memory(devices) -> int | None:
+    """Free memory summed over accelerator devices [bytes] (None on CPU or if unknown)."""
+    total = 0
+    for device in devices:
+        if device.platform == "cpu":
+            return None
+        stats = device.memory_stats() or {}
+        if "bytes_limit" not in stats:
+            return None
+        total += int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
+    return total or None
+
+
+def memory_limit(limit=None, devices=None) -> int:
+    """The memory limit of a call [bytes]: ``limit`` if given, else ``$SARJAX_MEMORY_LIMIT``,
+    else :data:`DEFAULT_FRACTION` of the available memory (see the module docstring).
+
+    Args:
+        limit: bytes, or a string such as ``"4GiB"``; None for the default.
+        devices: the devices the call runs on (default: ``jax.devices()[:1]``).
+    """
+    if limit is not None:
+        return parse_bytes(limit, "memory_limit")
+    env = os.environ.get(ENV_LIMIT)
+    if env:
+        return parse_bytes(env, ENV_LIMIT)
+    devices = jax.devices()[:1] if devices is None else devices
+    free = _device_memory(devices)
+    if free is None:
+        free = available_memory()
+    if free is None:  # nothing readable: no limit rather than a made-up one
+        return 2**62
+    return int(DEFAULT_FRACTION * free)
+
+
+def refuse(what: str, estimate: Estimate, limit: int, *, chunked: bool = True):
+    """Raise :class:`MemoryLimitError` stating the estimate and the limit."""
+    how = "even at the smallest chunks" if chunked else "(this call is not chunked)"
+    raise MemoryLimitError(
+        f"{what}: estimated peak memory {format_bytes(estimate.total)} "
+        f"(output {format_bytes(estimate.output)}, inputs {format_bytes(estimate.inputs)}, "
+        f"workspace {format_bytes(estimate.workspace)}) exceeds the memory limit "
+        f"{format_bytes(limit)} {how}; raise memory_limit= (or ${ENV_LIMIT}) or reduce "
+        "the problem size"
+    )
+
+
+# --------------------------------------------------------------------------------------
+# per-method workspaces (one realization) [bytes]
+# --------------------------------------------------------------------------------------
+
+_C128 = 16  # the Fourier engines work in complex128 whatever the output dtype
+
+
+def scene_bytes(scene) -> int:
+    """Bytes of a scene's arrays."""
+    return int(sum(np.size(leaf) * np.dtype(leaf.dtype).itemsize
+                   for leaf in jax.tree_util.tree_leaves(scene) if hasattr(leaf, "dtype")))
+
+
+def _range_lines(scene) -> int:
+    """Range lines of the Fourier engines: one per point scatterer or per grid column."""
+    shape = np.shape(scene.reflectivity)
+    return int(shape[-1]) if len(np.shape(scene.range)) == 1 and len(shape) == 2 else int(
+        np.size(scene.range))
+
+
+def time_domain_workspace(num_range, pulse_chunk, scatterer_chunk, num_scatterers, dtype):
+    """Exact model: per pulse chunk a (pulses, scatterers, range) complex chirp table
+    (its real delay and phase fused into it; XLA holds ≈ 1 table, counted twice), the
+    padded scatterer arrays and the accumulators."""
+    item = np.dtype(dtype).itemsize
+    table = pulse_chunk * scatterer_chunk * num_range * item
+    padded = (-(-num_scatterers // scatterer_chunk)) * scatterer_chunk * 6 * 8
+    return int(2 * table + padded + 2 * pulse_chunk * num_range * item)
+
+
+def _fourier_grid(simulator, acquisition):
+    """(n_x, n_r): the padded azimuth and range FFT sizes of a Fourier-domain simulator."""
+    pad = getattr(simulator, "azimuth_pad", None)
+    pad = acquisition.num_pulses if pad is None else int(pad)
+    n_r = getattr(simulator, "range_fft_size", None)
+    n_r = next_fast_len(2 * acquisition.num_range) if n_r is None else int(n_r)
+    return next_fast_len(acquisition.num_pulses + 2 * pad), n_r
+
+
+# Fourier-domain workspaces [complex128 elements]: ``grids`` (n_x, n_r) arrays, ``lines``
+# (n_x,) spectra per range line (line sets, grid DTFTs), (n_r,) and (n_x,) columns per
+# pulse (the (η, x') accumulators, per-pulse factors) and, for column-chunked engines,
+# (n_x, chunk) blocks. Least-squares fits to XLA's memory analysis of each engine over
+# grids and point scenes (N_x 256–2048, N_r 256–1024, 3–400 range lines), scaled by
+# 1.2–1.5 into upper bounds (tests/test_memory.py checks them).
+_GRID_FACTORS = {
+    # class name: (grids, lines, pulses·n_r, pulses·n_x, column blocks)
+    "Fourier2D": (0.15, 3.5, 3.4, 0.13, 0.0),
+    "SmallDeviation": (0.4, 3.0, 2.9, 0.15, 0.0),
+    "ModerateDeviation": (0.75, 16.5, 1.5, 0.2, 0.0),
+    "HighSpeed": (0.0, 3.0, 0.0, 0.0, 14.0),
+    "ChirpScaling": (2.4, 0.0, 0.1, 0.0, 0.0),
+}
+_GENERIC_FACTORS = (4.0, 16.0, 3.0, 0.5, 0.0)
+
+
+def fourier_workspace(simulator, scene, acquisition):
+    """FFT-grid methods: ``16 (a n_x n_r + b n_lines n_x + c N_x n_r + d N_x n_x
+    + e n_x min(chunk, n_r))`` [bytes], the factors per method (``_GRID_FACTORS``)."""
+    n_x, n_r = _fourier_grid(simulator, acquisition)
+    factors = _GENERIC_FACTORS
+    for cls in type(simulator).__mro__:
+        if cls.__name__ in _GRID_FACTORS:
+            factors = _GRID_FACTORS[cls.__name__]
+            break
+    grids, lines, per_range, per_azimuth, blocks = factors
+    n = acquisition.num_pulses
+    chunk = min(int(getattr(simulator, "column_chunk", n_r) or n_r), n_r)
+    return int(_C128 * (grids * n_x * n_r + lines * _range_lines(scene) * n_x
+                        + per_range * n * n_r + per_azimuth * n * n_x + blocks * n_x * chunk))
+
+
+def nufft_workspace(simulator, num_pulses, num_range, num_scatterers, dtype):
+    """Exact model by non-uniform FFT: ≈ 20 oversampled-grid-sized tables (chirp
+    spectrum, deconvolution, indices), and per pulse in flight (``loops`` concurrent
+    loops of ``chunk()`` pulses) half a grid and the scatterers' geometry and spread values;
+    ``engine="direct"`` adds its (scatterer, band · n_r) phasor table per pulse of a chunk
+    (fitted to XLA's memory analysis, with a margin)."""
+    n_r, bands, grid, width = simulator.sizes(num_range)
+    item = np.dtype(dtype).itemsize
+    chunk = simulator.chunk(num_pulses, num_range, num_scatterers, dtype)
+    in_flight = max(1, min(simulator.loops, num_pulses)) * chunk
+    per_pulse = grid * _C128 // 2 + num_scatterers * (6 * 8 + width * item)
+    workspace = 20 * grid * _C128 + in_flight * per_pulse
+    if simulator.engine == "direct":
+        workspace += 1.2 * chunk * num_scatterers * bands * n_r * _C128
+    return int(workspace)
+
+
+def simulation_workspace(simulator, radar, scene, acquisition, dtype) -> int:
+    """Workspace of one realization [bytes] for any simulator.
+
+    A simulator may provide its own ``peak_workspace(radar, scene, acquisition, dtype)``
+    (bytes). Otherwise: the exact model from its chunks, the non-uniform-FFT model from
+    its chunk rule, simulators with padded FFT grids (``azimuth_pad`` /
+    ``range_fft_size``) the grid estimate, anything else eight complex128 copies of the
+    output.
+    """
+    from .simulators import TimeDomain, TimeDomainNUFFT
+
+    own = getattr(simulator, "peak_workspace", None)
+    if callable(own):
+        return int(own(radar, scene, acquisition, dtype))
+    n, n_r, n_s = acquisition.num_pulses, acquisition.num_range, scene.num_scatterers
+    if isinstance(simulator, TimeDomain):
+        pulse, scat = simulator.chunks(n, n_r, n_s, dtype)
+        return time_domain_workspace(n_r, pulse, scat, n_s, dtype)
+    if isinstance(simulator, TimeDomainNUFFT):
+        return nufft_workspace(simulator, n, n_r, n_s, dtype)
+    if hasattr(simulator, "range_fft_size") or hasattr(simulator, "azimuth_pad"):
+        return fourier_workspace(simulator, scene, acquisition)
+    return int(8 * _C128 * n * n_r)
+
+
+def simulation_estimate(simulator, radar, scene, motion_bytes, acquisition, dtype,
+                        batch_size=None, batch_chunk=None) -> Estimate:
+    """Estimated peak memory of :func:`sarjax.simulate` (see the module docstring).
+
+    Args:
+        simulator: the prepared simulator.
+        motion_bytes: bytes of the motion arrays.
+        batch_size: realizations B (None: unbatched).
+        batch_chunk: realizations evaluated together (None: all).
+    """
+    count = 1 if batch_size is None else batch_size
+    together = count if batch_chunk is None else min(batch_chunk, count)
+    item = np.dtype(dtype).itemsize
+    output = count * acquisition.num_pulses * acquisition.num_range * item
+    inputs = scene_bytes(scene) + int(motion_bytes)
+    workspace = together * simulation_workspace(simulator, radar, scene, acquisition, dtype)
+    return Estimate(int(output), int(inputs), int(workspace))
+
+
+def focus_estimate(method, num_pulses, num_range, n_fft, *, image_shape=None,
+                   upsample=8) -> Estimate:
+    """Estimated peak memory of :func:`sarjax.focus` [bytes] (complex128 processing).
+
+    ω-k: the range-compressed data and ≈ 4 padded (n_x, 2 N_r) spectra; back-projection:
+    7 (exact back-projection: 18) complex128 arrays the size of the data and of the image
+    (compressed and upsampled pulse blocks, per-pixel ranges and weights), fitted to
+    XLA's memory analysis with a margin of ≈ 1.3.
+    """
+    n_img = num_pulses * num_range if image_shape is None else int(np.prod(image_shape))
+    n_data = num_pulses * num_range
+    if method == "omega_k":
+        n_x, n_r = next_fast_len(num_pulses), next_fast_len(2 * num_range)
+        workspace = _C128 * (2 * num_pulses * n_fft + 4 * n_x * n_r)
+    else:
+        arrays = 7.0 if method == "backprojection" else 18.0
+        workspace = _C128 * arrays * (n_data + n_img) * max(1.0, upsample / 8)
+    return Estimate(int(_C128 * n_img), int(_C128 * n_data), int(workspace))

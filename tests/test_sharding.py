@@ -1,0 +1,151 @@
+"""Multi-device execution: the same call sharded over forced CPU devices equals the
+one-device call.
+
+XLA fixes the device count when it starts, so the sharded runs happen in a subprocess
+with ``XLA_FLAGS=--xla_force_host_platform_device_count=4``. Sharding splits independent
+pulses / realizations; a pulse block is simulated as a shorter acquisition whose pulse
+azimuths differ from the full one's by rounding (≲ 1e-13 m), so results agree to rounding;
+1e-6 relative to the peak is the issue's acceptance figure.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import sarjax as sj
+
+RELATIVE = 1e-6
+
+_SCRIPT = textwrap.dedent("""
+    import json, sys
+    import jax
+    import numpy as np
+    import sarjax as sj
+
+    methods = sys.argv[1].split(",")
+    radar = sj.presets.airborne_xband()
+    scene = sj.PointTargets(azimuth=[0.0, 3.0, -2.0, 1.5], range=[5140.0, 5150.0, 5135.0, 5170.0],
+                            reflectivity=[1.0, 0.5j, 0.3, -0.7], height=[0.0, 10.0, 0.0, 25.0])
+    num_pulses = 45  # not a multiple of the device count: padded blocks
+    rng = np.random.default_rng(0)
+    x = np.linspace(-1.0, 1.0, num_pulses)
+
+    def motion(batch=None):
+        shape = (num_pulses,) if batch is None else (batch, num_pulses)
+        return sj.Motion(horizontal=0.02 * np.sin(3 * x) + 0.003 * rng.normal(size=shape),
+                         pointing=1e-3 * rng.normal(size=shape))
+
+    def compare(method, motion, **kwargs):
+        kwargs = dict(method=method, num_pulses=num_pulses, num_range=96, near_range=5100.0,
+                      **kwargs)
+        plan = sj.simulation_memory(radar, scene, motion, **kwargs)
+        sharded = sj.simulate(radar, scene, motion, **kwargs)
+        single = sj.simulate(radar, scene, motion, **{**kwargs, "devices": 1})
+        a, b = np.asarray(sharded.data), np.asarray(single.data)
+        return dict(method=method, shape=list(a.shape),
+                    relative=float(np.max(np.abs(a - b)) / np.max(np.abs(b))),
+                    peak=float(np.max(np.abs(b))),
+                    devices=len(plan.devices), mesh=[plan.batch_shards, plan.pulse_shards],
+                    output_devices=len(sharded.data.sharding.device_set))
+
+    results = dict(device_count=jax.device_count(), runs=[])
+    for method in methods:
+        results["runs"].append(compare(method, motion()))
+        results["runs"].append(compare(method, motion(batch=8)))
+        if method == "time_domain":
+            results["runs"].append(compare(method, motion(batch=2)))  # a 2 x 2 mesh
+            results["runs"].append(compare(method, motion(), devices=2))
+    print("RESULTS" + json.dumps(results))
+""")
+
+
+def _run_with_devices(methods, count=4):
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") +
+                        f" --xla_force_host_platform_device_count={count}").strip()
+    env["JAX_PLATFORMS"] = "cpu"
+    done = subprocess.run([sys.executable, "-c", _SCRIPT, ",".join(methods)], env=env,
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-4000:]
+    line = next(s for s in done.stdout.splitlines() if s.startswith("RESULTS"))
+    return json.loads(line[len("RESULTS"):])
+
+
+def _check(results, methods):
+    assert results["device_count"] == 4
+    runs = {(r["method"], tuple(r["shape"]), r["devices"]): r for r in results["runs"]}
+    for run in results["runs"]:
+        assert run["peak"] > 0.1
+        assert run["relative"] <= RELATIVE, run
+    if "time_domain" in methods:
+        # pulses over 4 devices; 8 realizations over 4; 2 realizations x 2 pulse blocks;
+        # an explicit devices=2
+        assert runs["time_domain", (45, 96), 4]["mesh"] == [1, 4]
+        assert runs["time_domain", (8, 45, 96), 4]["mesh"] == [4, 1]
+        assert runs["time_domain", (8, 45, 96), 4]["output_devices"] == 4
+        assert runs["time_domain", (2, 45, 96), 4]["mesh"] == [2, 2]
+        assert runs["time_domain", (45, 96), 2]["mesh"] == [1, 2]
+    for method in methods:
+        if method in ("small_deviation", "moderate_deviation", "fourier_2d"):
+            # the Fourier engines need every pulse: one device unbatched, batch sharded
+            assert (method, (45, 96), 0) in runs
+            assert runs[method, (8, 45, 96), 4]["mesh"] == [4, 1]
+
+
+def test_four_cpu_devices_equal_one_device():
+    methods = ["time_domain", "small_deviation"]
+    _check(_run_with_devices(methods), methods)
+
+
+@pytest.mark.slow
+def test_four_cpu_devices_equal_one_device_every_sharded_method():
+    methods = ["time_domain", "time_domain_nufft", "small_deviation", "moderate_deviation"]
+    _check(_run_with_devices(methods), methods)
+
+
+# ---- one device (this process) --------------------------------------------------------
+
+
+def _call(**kwargs):
+    radar = sj.presets.airborne_xband()
+    scene = sj.PointTargets(azimuth=[0.0, 2.0], range=[5140.0, 5150.0])
+    return sj.simulate(radar, scene, None, num_pulses=16, num_range=64, near_range=5100.0,
+                       **kwargs)
+
+
+def test_single_device_is_unchanged():
+    """One device: the default and ``devices=1`` are the same program, same bits."""
+    a = _call()
+    b = _call(devices=1)
+    np.testing.assert_array_equal(np.asarray(a.data), np.asarray(b.data))
+    plan = sj.simulation_memory(sj.presets.airborne_xband(),
+                                sj.PointTargets(azimuth=[0.0], range=[5140.0]), None,
+                                num_pulses=16, num_range=64, near_range=5100.0)
+    assert plan.devices == () and (plan.batch_shards, plan.pulse_shards) == (1, 1)
+
+
+@pytest.mark.parametrize("devices, message", [
+    (0, r"devices=0 must be between 1 and the 1 available"),
+    (5, r"devices=5 must be between 1 and the 1 available"),
+    ("cpu", r"devices='cpu' must be a non-empty sequence of jax.Device"),
+    ([], r"devices=\[\] must be a non-empty sequence of jax.Device"),
+    (1.5, r"devices=1.5 must be None, a number of devices or a sequence"),
+])
+def test_bad_devices_are_named(devices, message):
+    with pytest.raises(ValueError, match=message):
+        _call(devices=devices)
+
+
+def test_devices_as_a_list():
+    import jax
+
+    a = _call(devices=jax.devices()[:1])
+    b = _call(devices=jax.devices()[0])
+    np.testing.assert_array_equal(np.asarray(a.data), np.asarray(b.data))
