@@ -204,12 +204,22 @@ def pulse_echo(radar, pulse, targets, range_axis_offset, dtype, stop_and_go=True
     real = jnp.finfo(dtype).dtype
     offset, amplitude = scatterer_phasors(radar, pulse, targets, stop_and_go)
     # r' − ρ = (near − r − (ρ − r)) + (r'_k − near); the first term in float64.
-    base = (near_range - targets[1] - offset).astype(real)
+    base64 = near_range - targets[1] - offset
+    base = base64.astype(real)
     delta = base[:, None] + sample_offsets[None, :]  # (scatterer, range)
     half = radar.pulse_half_length.astype(real)
     b = radar.chirp_rate.astype(real)
     phase = b * delta * delta
-    inside = jnp.abs(delta) < half
+    if real == jnp.float64:
+        inside = jnp.abs(delta) < half
+    else:
+        # the pulse extent is decided in float64: a float32 r' − ρ within ~1e-4 m of an
+        # edge could fall on the wrong side and put a full-amplitude error on that sample
+        dr = radar.range_spacing
+        first = jnp.floor((-radar.pulse_half_length - base64) / dr) + 1  # |r' − ρ| < cτ/4
+        last = jnp.ceil((radar.pulse_half_length - base64) / dr) - 1
+        k = jnp.arange(sample_offsets.shape[0], dtype=jnp.float64)
+        inside = (k[None, :] >= first[:, None]) & (k[None, :] <= last[:, None])
     # sin/cos from multiply-adds (sarjax._phasor; XLA's libm calls cost ~20 ns each on
     # CPU), masked to the pulse
     sin_phase, cos_phase = _sin_cos(phase)
