@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import sarjax as sj
+from sarjax.metrics import nmse_db
 
 
 def _phase_error_rms(test, ref, within_db=20.0):
@@ -41,3 +42,20 @@ def test_float32_phase_error(name):
         # b (r' − R)² with |r' − R| ≤ cτ/4: measured ≈ 2e-5 rad
         assert err <= 0.01, f"{name} r={r}: float32 phase error {err:.3g} rad rms"
         assert err <= 1e-3  # a tighter bound that documents the measured margin
+
+
+def test_complex64_many_scatterers_keeps_the_pulse_extent_exact():
+    """The complex64 kernel decides each scatterer's pulse extent in float64: with float32
+    r' − ρ, samples within ~1e-4 m of a pulse edge fell on the wrong side, a full-amplitude
+    error per sample (about −70 dB NMSE for 1000 scatterers; −93 dB measured now, the
+    float32 rounding of the chirp phase)."""
+    radar = sj.presets.airborne_xband(num_pulses=128, num_range=830)
+    rng = np.random.default_rng(0)
+    n = 1000
+    scene = sj.PointTargets(azimuth=rng.uniform(-20, 20, n), range=rng.uniform(5000, 5300, n),
+                            reflectivity=rng.normal(size=n) + 1j * rng.normal(size=n))
+    x = (np.arange(128) - 64) * 0.25
+    motion = sj.Motion(horizontal=0.05 * np.sin(x / 7), vertical=0.03 * np.cos(x / 5))
+    double = sj.simulate(radar, scene, motion).data
+    single = sj.simulate(radar, scene, motion, dtype=jnp.complex64).data
+    assert nmse_db(single, double) <= -85.0
