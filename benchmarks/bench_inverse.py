@@ -24,8 +24,11 @@ the fit used) with the fitted and with the true track: PSLR and peak differences
 Writes its section of ``benchmarks/RESULTS.md`` (between ``<!-- bench_inverse:start -->``
 and ``<!-- bench_inverse:end -->``). Usage::
 
-    python benchmarks/bench_inverse.py            # 20 seeds per case, 50 MC draws
-    python benchmarks/bench_inverse.py --quick    # 2 seeds, 4 draws, writes nothing
+    python benchmarks/bench_inverse.py            # 50 MC draws, 20 seeds per case
+    python benchmarks/bench_inverse.py --quick    # 4 draws, 2 seeds, writes nothing
+
+The section is rewritten after each part (Monte-Carlo draws first, then the cases, then
+back-projection), so an interrupted run leaves what it finished, marked incomplete.
 """
 
 from __future__ import annotations
@@ -123,13 +126,31 @@ def run_case(radar, scene, rms, seeds, log):
     return rows
 
 
-def monte_carlo(radar, scene, draws, log):
+def monte_carlo(radar, scene, draws, log, progress=None):
     motion, jitter = truth(radar, 0.02, 0)
     clean = sj.simulate(radar, scene, motion)
     power = float(np.mean(np.abs(np.asarray(clean.data)) ** 2))
     bound = sj.crb(radar, scene, noise_power=power, motion=motion, jitter=jitter)
+    amplitude, period, _ = jitter
+    crb = {
+        "horizontal": bound.rms["horizontal"], "vertical": bound.rms["vertical"],
+        "los": bound.rms["line_of_sight"],
+        "amplitude": bound.jitter["amplitude_std"] / amplitude,
+        "period": bound.jitter["period_std"] / period, "phase": bound.jitter["phase_std"],
+    }
     sq = {k: [] for k in ("horizontal", "vertical", "los", "amplitude", "period", "phase")}
     times = []
+    recovered = 0
+
+    def summary():
+        # a cold-start failure (LOS rmse > λ/20) is counted, and the rmse is given both over
+        # all draws and over the others (the estimator's efficiency where it converged)
+        ok = np.asarray(sq["los"]) <= (float(radar.wavelength) / 20) ** 2
+        rmse = {k: (float(np.sqrt(np.mean(v))),
+                    float(np.sqrt(np.mean(np.asarray(v)[ok]))) if ok.any() else np.nan)
+                for k, v in sq.items()}
+        return rmse, crb, list(times), int((~ok).sum()), recovered
+
     for d in range(draws):
         raw, _ = noisy(clean, np.random.default_rng(50_000 + d))
         t0 = time.perf_counter()
@@ -138,20 +159,17 @@ def monte_carlo(radar, scene, draws, log):
         err = errors(result, motion, jitter)
         for k in sq:
             sq[k].append(err[k] ** 2)
-        log(f"  draw {d}: {times[-1]:.1f} s, LOS {err['los'] * 1e6:.2f} µm")
-    amplitude, period, _ = jitter
-    crb = {
-        "horizontal": bound.rms["horizontal"], "vertical": bound.rms["vertical"],
-        "los": bound.rms["line_of_sight"],
-        "amplitude": bound.jitter["amplitude_std"] / amplitude,
-        "period": bound.jitter["period_std"] / period, "phase": bound.jitter["phase_std"],
-    }
-    # a cold-start failure (LOS rmse > λ/20) is counted, and the rmse is given both over
-    # all draws and over the others (the estimator's efficiency where it converged)
-    ok = np.asarray(sq["los"]) <= (float(radar.wavelength) / 20) ** 2
-    rmse = {k: (float(np.sqrt(np.mean(v))), float(np.sqrt(np.mean(np.asarray(v)[ok]))))
-            for k, v in sq.items()}
-    return rmse, crb, times, int((~ok).sum())
+        retries = sum(s.name.startswith("recovery") for s in result.history)
+        recovered += retries > 0
+        log(f"  draw {d} (noise seed {50_000 + d}): {times[-1]:.1f} s, LOS "
+            f"{err['los'] * 1e6:.2f} µm, H {err['horizontal'] * 1e6:.1f} µm, V "
+            f"{err['vertical'] * 1e6:.1f} µm, δ_m {err['amplitude'] * 100:+.2f} %, T_b "
+            f"{err['period'] * 100:+.3f} %, φ₀ {err['phase']:+.4f} rad, χ²/M "
+            f"{result.chi2 / result.num_residuals:.4f}, converged {result.converged}, "
+            f"re-starts {retries}")
+        if progress is not None:
+            progress(summary())
+    return summary()
 
 
 def backprojection_check(radar, scene, rms, seed):
@@ -205,82 +223,73 @@ def machine():
             f"{datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--write", action="store_true", help="write RESULTS.md with --quick")
-    parser.add_argument("--seeds", type=int, default=None)
-    parser.add_argument("--draws", type=int, default=None)
-    args = parser.parse_args()
-    n_seeds = args.seeds or (2 if args.quick else 20)
-    n_draws = args.draws if args.draws is not None else (4 if args.quick else 50)
-    lines = []
-    log = lambda s: (print(s, flush=True), lines.append(s))
-    radar, scene = setup()
-    load0 = os.getloadavg()[0]
-    cases = {}
-    for label, rms in (("A", 0.02), ("B", 0.5)):
-        log(f"case {label} (rms {rms} m)")
-        cases[label] = run_case(radar, scene, rms, range(n_seeds), log)
-    log("Monte-Carlo (case A, seed-0 truth)")
-    rmse, crb, mc_times, failed = (monte_carlo(radar, scene, n_draws, log) if n_draws
-                                   else ({}, {}, [], 0))
-    log("back-projection")
-    bp = {label: backprojection_check(radar, scene, rms, 0)
-          for label, rms in (("A", 0.02), ("B", 0.5))}
-    load1 = os.getloadavg()[0]
-
+def render(cases, mc, bp, lines, n_seeds, n_draws, load0, load1, pending):
+    """The RESULTS.md section from the parts done so far (``pending``: parts still running)."""
     md = [START, "## Inverse module (`bench_inverse.py`)", "",
           "Generated by `python benchmarks/bench_inverse.py` (see the script's docstring for "
           "the setup); re-running it replaces only this section.", "",
           f"- Machine: {machine()}",
           f"- Load average (1 min) at start / end: {load0:.2f} / {load1:.2f}. The machine is "
-          "shared with other work: times are wall-clock and disturbed by it.", "",
-          "### Acceptance: 20 random seeds per case, from zero initial motion", "",
-          "| case | seeds passing | LOS rmse max [mm] (λ/20 = 1.57) | Δy rmse max [mm] | "
-          "Δz rmse max [mm] | CRB Δy / Δz / LOS rms [mm] | |δ_m err| max [%] | "
-          "|T_b err| max [%] | |φ₀ err| max [rad] | fit time median / max [s] | "
-          "first fit (compile) [s] |",
-          "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for label, rows in cases.items():
-        e = lambda k, rows=rows: max(abs(r["err"][k]) for r in rows)
-        c = rows[0]["crb"]
-        t = [r["seconds"] for r in rows]
-        md.append(
-            f"| {label} | {sum(r['ok'] for r in rows)} / {len(rows)} | {e('los') * 1e3:.4f} | "
-            f"{e('horizontal') * 1e3:.3f} | {e('vertical') * 1e3:.3f} | "
-            f"{c['horizontal'] * 1e3:.3f} / {c['vertical'] * 1e3:.3f} / "
-            f"{c['line_of_sight'] * 1e3:.4f} | {e('amplitude') * 100:.2f} | "
-            f"{e('period') * 100:.3f} | {e('phase'):.4f} | {np.median(t[1:] or t):.1f} / "
-            f"{max(t):.1f} | {t[0]:.1f} |")
-    md += ["", "λ/10 = 3.14 mm: every Δy, Δz criterion is met by the λ/10 clause (the CRB is "
-           "far below). Per-seed lines:", "", "```"]
-    md += [s for s in lines if s.startswith("  rms=")]
-    md += ["```", ""]
-    if rmse:
-        md += [f"### Monte-Carlo: {n_draws} noise draws at the seed-0 case-A truth", "",
-               f"Cold-start failures (LOS rmse > λ/20): {failed} of {n_draws}.", "",
+          "shared with other work: times are wall-clock and disturbed by it.", ""]
+    if pending:
+        md += [f"**Incomplete: still running or not reached: {', '.join(pending)}.**", ""]
+    if mc:
+        rmse, crb, mc_times, failed, recovered = mc
+        done = len(mc_times)
+        md += [f"### Monte-Carlo: {done} noise draws at the seed-0 case-A truth", "",
+               f"Cold-start failures (LOS rmse > λ/20): {failed} of {done}. Draws where a "
+               f"slipped unwrapping was detected and the fit re-started: {recovered}.", "",
                "| parameter group | rmse, all draws | rmse, without failures | CRB | "
-               "rmse / CRB (without failures) |", "|---|---|---|---|---|"]
+               "rmse / CRB (all draws) | rmse / CRB (without failures) |",
+               "|---|---|---|---|---|---|"]
         units = dict(horizontal=("mm", 1e3), vertical=("mm", 1e3), los=("µm", 1e6),
                      amplitude=("%", 100), period=("%", 100), phase=("rad", 1))
         for k in rmse:
             u, f = units[k]
             md.append(f"| {k} [{u}] | {rmse[k][0] * f:.4g} | {rmse[k][1] * f:.4g} | "
-                      f"{crb[k] * f:.4g} | {rmse[k][1] / crb[k]:.3f} |")
-        md += ["", f"Median fit time over the draws: {np.median(mc_times):.1f} s.", ""]
-    md += ["### Back-projection with the fitted vs the true track (seed 0)", "",
-           "| case | target range [m] | ΔPSLR azimuth [dB] | ΔPSLR range [dB] | Δpeak [dB] |",
-           "|---|---|---|---|---|"]
-    for label, rows in bp.items():
-        for r in rows:
-            md.append(f"| {label} | {r['range']:.0f} | {r['pslr_azimuth']:+.4f} | "
-                      f"{r['pslr_range']:+.4f} | {r['peak']:+.5f} |")
-    md += ["", END]
-    text = "\n".join(md)
-    print(text)
-    if args.quick and not args.write:
-        return
+                      f"{crb[k] * f:.4g} | {rmse[k][0] / crb[k]:.3f} | "
+                      f"{rmse[k][1] / crb[k]:.3f} |")
+        md += ["", f"Median fit time over the draws: {np.median(mc_times):.1f} s. Per-draw "
+               "lines:", "", "```"]
+        md += [s for s in lines if s.startswith("  draw ")]
+        md += ["```", ""]
+    if cases:
+        md += [f"### Acceptance: {n_seeds} random seeds per case, from zero initial motion", "",
+               "| case | seeds passing | LOS rmse max [mm] (λ/20 = 1.57) | Δy rmse max [mm] | "
+               "Δz rmse max [mm] | CRB Δy / Δz / LOS rms [mm] | |δ_m err| max [%] | "
+               "|T_b err| max [%] | |φ₀ err| max [rad] | fit time median / max [s] | "
+               "first fit (compile) [s] |",
+               "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for label, rows in cases.items():
+            e = lambda k, rows=rows: max(abs(r["err"][k]) for r in rows)
+            c = rows[0]["crb"]
+            t = [r["seconds"] for r in rows]
+            md.append(
+                f"| {label} | {sum(r['ok'] for r in rows)} / {len(rows)} | "
+                f"{e('los') * 1e3:.4f} | "
+                f"{e('horizontal') * 1e3:.3f} | {e('vertical') * 1e3:.3f} | "
+                f"{c['horizontal'] * 1e3:.3f} / {c['vertical'] * 1e3:.3f} / "
+                f"{c['line_of_sight'] * 1e3:.4f} | {e('amplitude') * 100:.2f} | "
+                f"{e('period') * 100:.3f} | {e('phase'):.4f} | {np.median(t[1:] or t):.1f} / "
+                f"{max(t):.1f} | {t[0]:.1f} |")
+        md += ["", "λ/10 = 3.14 mm: every Δy, Δz criterion is met by the λ/10 clause (the CRB "
+               "is far below). Per-seed lines:", "", "```"]
+        md += [s for s in lines if s.startswith("  rms=")]
+        md += ["```", ""]
+    if bp:
+        md += ["### Back-projection with the fitted vs the true track (seed 0)", "",
+               "| case | target range [m] | ΔPSLR azimuth [dB] | ΔPSLR range [dB] | "
+               "Δpeak [dB] |", "|---|---|---|---|---|"]
+        for label, rows in bp.items():
+            for r in rows:
+                md.append(f"| {label} | {r['range']:.0f} | {r['pslr_azimuth']:+.4f} | "
+                          f"{r['pslr_range']:+.4f} | {r['peak']:+.5f} |")
+        md += [""]
+    md += [END]
+    return "\n".join(md)
+
+
+def write(text):
     path = HERE / "RESULTS.md"
     old = path.read_text() if path.exists() else "# Benchmark results\n"
     if START in old and END in old:
@@ -288,6 +297,56 @@ def main():
     else:
         new = old.rstrip("\n") + "\n\n" + text + "\n"
     path.write_text(new)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--write", action="store_true", help="write RESULTS.md with --quick")
+    parser.add_argument("--seeds", type=int, default=None)
+    parser.add_argument("--draws", type=int, default=None)
+    args = parser.parse_args()
+    n_seeds = args.seeds if args.seeds is not None else (2 if args.quick else 20)
+    n_draws = args.draws if args.draws is not None else (4 if args.quick else 50)
+    lines = []
+    log = lambda s: (print(s, flush=True), lines.append(s))
+    radar, scene = setup()
+    load0 = os.getloadavg()[0]
+    save = not args.quick or args.write
+    cases, mc, bp = {}, None, {}
+    parts = ["Monte-Carlo", "case A", "case B", "back-projection"]
+
+    def checkpoint(done):
+        # the section is rewritten after every part (and every Monte-Carlo draw), so a slow
+        # run still leaves what it finished
+        if done in parts:
+            parts.remove(done)
+        text = render(cases, mc, bp, lines, n_seeds, n_draws, load0, os.getloadavg()[0],
+                      parts)
+        if save:
+            write(text)
+        return text
+
+    # the Monte-Carlo first: the longest part, and the one the CRB comparison needs
+    if n_draws:
+        log("Monte-Carlo (case A, seed-0 truth)")
+
+        def progress(partial):
+            nonlocal mc
+            mc = partial
+            checkpoint(None)
+
+        mc = monte_carlo(radar, scene, n_draws, log, progress)
+    checkpoint("Monte-Carlo")
+    for label, rms in (("A", 0.02), ("B", 0.5)):
+        if n_seeds:
+            log(f"case {label} (rms {rms} m)")
+            cases[label] = run_case(radar, scene, rms, range(n_seeds), log)
+        checkpoint(f"case {label}")
+    log("back-projection")
+    bp = {label: backprojection_check(radar, scene, rms, 0)
+          for label, rms in (("A", 0.02), ("B", 0.5))}
+    print(checkpoint("back-projection"))
 
 
 if __name__ == "__main__":

@@ -27,7 +27,9 @@ class Stage:
     """One stage of a fit.
 
     Attributes:
-        name: ``"envelope"``, ``"phase"``, ``"jitter"``, ``"initial"`` or ``"joint"``.
+        name: ``"envelope"``, ``"phase"``, ``"jitter"``, ``"initial"``, ``"joint"`` or
+            ``"recovery k"`` (a joint fit re-started after a detected unwrapping slip; the
+            result is the lowest-χ² joint fit).
         seconds: wall time of the stage [s].
         cost: ½‖r‖² of the whitened residual at the stage's estimate, reflectivities at
             their least-squares values (≈ half the number of real residuals at the optimum).
@@ -243,6 +245,28 @@ def _cost(args, y):
     return float(_cost_jit(args, y))
 
 
+@eqx.filter_jit
+def _chi2_jit(args, y):
+    return jnp.sum(_residuals(y, args)[0] ** 2)
+
+
+# A slipped cold start is flagged after the joint fit by: the solver stopping short; χ²
+# above this multiple of its floor M − K (a good fit sits below it: the noise power from
+# the median of the compressed data is biased high by the echoes, χ² ≈ 0.87 (M − K) on the
+# acceptance scene); or a stretch of pulses whose mean χ² exceeds the median pulse's by
+# _SLIP_PULSE_CHI2. The recovery retries with these phase-gradient smoothing half-lengths
+# [pulses], rebuilding the pulses with excess residual or not.
+_SLIP_CHI2 = 1.03
+_SLIP_PULSE_CHI2 = 1.2
+_RECOVERY = ((8, True), (4, True), (16, False))
+
+
+@eqx.filter_jit
+def _pulse_chi2(args, y):
+    """(azimuth,) χ² of each pulse's whitened residual (2 × samples real residuals)."""
+    return jnp.sum(_residuals(y, args)[0] ** 2, axis=(1, 2))
+
+
 # ---- the public entry point --------------------------------------------------------------
 
 
@@ -398,35 +422,101 @@ def fit_motion(
 
     # ---- initial estimate -------------------------------------------------------------
     if initial is None:
-        params = _cold_start(radar, scene, bound, los, problem, compressed, x, near,
-                             sigma0_sq, max_deviation, jitter_period_bounds, min_snr, record)
+        params, rephase = _cold_start(radar, scene, bound, los, problem, compressed, x,
+                                      near, sigma0_sq, max_deviation, jitter_period_bounds,
+                                      min_snr, record)
     else:
         params = _initial_params(bound, initial, x, los)
+        rephase = None
         t0 = time.perf_counter()
         record("initial", time.perf_counter() - t0, params)
 
     # ---- joint Levenberg–Marquardt --------------------------------------------------------
-    t0 = time.perf_counter()
-    gamma = ls_gamma(params)
-    y0 = {n: jnp.asarray(params[n]) / scales[n] for n in bound.components}
-    all_scales = dict(scales)
-    if not known:
-        scale_g = float(np.max(np.abs(gamma))) or 1.0
-        all_scales["reflectivity"] = jnp.asarray(scale_g)
-        y0["reflectivity"] = jnp.asarray(np.stack([gamma.real, gamma.imag], -1) / scale_g)
-    args = _Args(problem, data_win, bound, los_arr, all_scales, inv_sigma, gamma_known)
     solve = _solve_optimistix if solver == "optimistix" else _solve_jaxopt
-    y, steps, converged = solve(y0, args, rtol, atol, max_steps)
-    y = jax.block_until_ready(y)
-    params = {n: y[n] * all_scales[n] for n in bound.components}
+    n_data = int(np.prod(data_win.shape)) * 2
+    num_params = sum(int(np.size(params[n])) for n in bound.components) + \
+        (0 if known else 2 * int(np.size(scene.range)))
+    floor = max(n_data - num_params, 1)
+
+    def joint(start):
+        gamma = ls_gamma(start)
+        y0 = {n: jnp.asarray(start[n]) / scales[n] for n in bound.components}
+        all_scales = dict(scales)
+        if not known:
+            scale_g = float(np.max(np.abs(gamma))) or 1.0
+            all_scales["reflectivity"] = jnp.asarray(scale_g)
+            y0["reflectivity"] = jnp.asarray(np.stack([gamma.real, gamma.imag], -1) / scale_g)
+        args = _Args(problem, data_win, bound, los_arr, all_scales, inv_sigma, gamma_known)
+        y, steps, converged = solve(y0, args, rtol, atol, max_steps)
+        y = jax.block_until_ready(y)
+        return dict(y=y, args=args, all_scales=all_scales, steps=int(steps),
+                    converged=bool(converged), chi2=float(_chi2_jit(args, y)))
+
+    t0 = time.perf_counter()
+    best = joint(params)
     t_joint = time.perf_counter() - t0
+    history.append(Stage("joint", t_joint, 0.5 * best["chi2"], best["steps"],
+                         {n: np.asarray(best["y"][n] * best["all_scales"][n])
+                          for n in bound.components}))
+    timings["joint"] = t_joint
+    attempts = 0
+    # a phase-unwrapping slip (typically at an aperture edge, where the echoes are weak and
+    # the coarse estimate's slope error can exceed π per pulse) leaves the joint fit in a
+    # local minimum, whole multiples of λ/2 of line of sight away on part of the aperture:
+    # χ² stays well above the noise floor (≈ M − K real residuals) or the solver stops
+    # short. Recovery: locate the pulses with excess residual, refit the profile on the
+    # others (the smooth model carries it over the slipped stretch), re-unwrap every
+    # scatterer's phase about that line of sight (the residual phase is then small and slow
+    # where it was slipped), refit jointly from there; keep the lowest χ².
+    def excess(fit, half_window):
+        """(azimuth,) bool: pulses whose χ², averaged over ±half_window pulses, exceeds
+        the typical pulse's (the median: a slip covers a minority of the pulses) by 20 %
+        (≈ 6 standard deviations of that average for 2 × 3 × 17 real residuals a pulse)."""
+        per_pulse = np.asarray(_pulse_chi2(fit["args"], fit["y"]))
+        kernel = np.ones(2 * half_window + 1) / (2 * half_window + 1)
+        smooth = np.convolve(per_pulse, kernel, mode="same")
+        norm = np.convolve(np.ones_like(per_pulse), kernel, mode="same")
+        return smooth / norm > _SLIP_PULSE_CHI2 * np.median(per_pulse)
+
+    def slipped(fit):
+        return (not fit["converged"] or fit["chi2"] > _SLIP_CHI2 * floor
+                or bool(excess(fit, 8).any()))
+
+    for half_window, reset in _RECOVERY:
+        if rephase is None or not slipped(best):
+            break
+        t0 = time.perf_counter()
+        fitted = {n: best["y"][n] * best["all_scales"][n] for n in bound.components}
+        keep = None
+        if reset:
+            # refit the profile on the pulses at the noise level, less a margin of
+            # half_window pulses about the others: the slipped stretch is rebuilt
+            bad = excess(best, half_window)
+            bad = np.convolve(bad.astype(float), np.ones(2 * half_window + 1), "same") > 0
+            keep = ~bad
+            if keep.all() or not keep.any():
+                keep = None
+        start = dict(params)
+        start.update(rephase(_setup.motion3(bound, fitted, problem.azimuth, los_arr),
+                             half_window, keep))
+        trial = joint(start)
+        seconds = time.perf_counter() - t0
+        attempts += 1
+        history.append(Stage(f"recovery {attempts}", seconds, 0.5 * trial["chi2"],
+                             trial["steps"], {n: np.asarray(trial["y"][n]
+                                                            * trial["all_scales"][n])
+                                              for n in bound.components}))
+        timings[f"recovery {attempts}"] = seconds
+        if trial["chi2"] < best["chi2"]:
+            best = trial
+    y, args, all_scales = best["y"], best["args"], best["all_scales"]
+    converged = best["converged"]
+    params = {n: y[n] * all_scales[n] for n in bound.components}
 
     # ---- covariance, noise, residual ------------------------------------------------------
     t0 = time.perf_counter()
     jac = np.asarray(_jacobian(y, args))
-    res = ravel_pytree(_residuals(y, args))[0]
-    n_data = int(np.prod(data_win.shape)) * 2
-    chi2 = float(jnp.sum(res[:n_data] ** 2))
+    chi2 = best["chi2"]
     num_params = jac.shape[1]
     normal = jac.T @ jac
     cov_scaled = np.linalg.pinv(normal, hermitian=True)
@@ -456,9 +546,6 @@ def fit_motion(
     support = np.zeros(raw_x.size, bool)
     support[p0:p1] = True
     timings["covariance"] = time.perf_counter() - t0
-    history.append(Stage("joint", t_joint, 0.5 * chi2, int(steps),
-                         {n: np.asarray(params[n]) for n in bound.components}))
-    timings["joint"] = t_joint
     timings["total"] = time.perf_counter() - t_start
     out_params = {n: np.asarray(params[n]) for n in bound.components}
     out_params["reflectivity"] = gamma_fit
@@ -614,42 +701,51 @@ def _cold_start(radar, scene, model, los, problem, compressed, x, near, sigma_sq
 
     # ---- phase ------------------------------------------------------------------------
     t0 = time.perf_counter()
-    weights = np.zeros_like(amp)
     wavelength = float(radar.wavelength)
-    phase_based = False
-    for _ in range(8 if has_dev else 1):
-        r_pred = np.sqrt((rs + pred) ** 2 + along**2)
-        z = _staging.sample_lines(lines, (r_pred - near) / dr * up)
-        amp = np.abs(z)
-        valid = amp**2 > min_snr * gain_noise
-        if not has_dev:
-            break
-        residual = z * np.exp(1j * k0 * r_pred)
-        fine = np.zeros(residual.shape)
-        for t in range(residual.shape[1]):
-            unwrapped, mask = _staging.unwrap_from_peak(residual[:, t], amp[:, t],
-                                                        valid[:, t])
-            fine[:, t] = unwrapped
-            weights[:, t] = amp[:, t] ** 2 * mask
-        r_fine = r_pred - fine / k0
-        los_fine = np.sqrt(np.maximum(r_fine**2 - along**2, 0)) - rs
-        if phase_based:
-            # robust: pulses a slip put ≥ λ/8 off the previous (phase-based) prediction do
-            # not pull the fit, unless that would drop most of a scatterer's pulses
-            misfit = los_fine - pred
-            misfit -= np.median(misfit, axis=0)[None, :]
-            keep = np.abs(misfit) < wavelength / 8
-            enough = keep.sum(axis=0) >= 0.5 * np.maximum((weights > 0).sum(axis=0), 1)
-            weights = weights * np.where(enough[None, :], keep, True)
-        phase_based = True
-        coef, const = _staging.fit_los(design, los_rows, los_fine, weights,
-                                       per_target_constant=True)
-        params.update(_split(model, coef, kh, los))
-        new_pred = np.einsum("tk,pkj,j->pt", los_rows, design, coef) + const[None, :]
-        change = np.max(np.abs(new_pred - pred - np.median(new_pred - pred, axis=0)))
-        pred = new_pred
-        if change < wavelength / 1000:
-            break
+
+    def phase_stage(pred, half_window=8):
+        """Unwrapped-phase line-of-sight fit from the prediction ``pred`` (azimuth, target)
+        [m]: returns (deviation parameters, prediction, compressed amplitudes, valid)."""
+        out = {}
+        weights = np.zeros(pred.shape)
+        phase_based = False
+        for _ in range(8 if has_dev else 1):
+            r_pred = np.sqrt((rs + pred) ** 2 + along**2)
+            z = _staging.sample_lines(lines, (r_pred - near) / dr * up)
+            amp = np.abs(z)
+            valid = amp**2 > min_snr * gain_noise
+            if not has_dev:
+                break
+            residual = z * np.exp(1j * k0 * r_pred)
+            fine = np.zeros(residual.shape)
+            for t in range(residual.shape[1]):
+                unwrapped, mask = _staging.unwrap_from_peak(residual[:, t], amp[:, t],
+                                                            valid[:, t], half_window)
+                fine[:, t] = unwrapped
+                weights[:, t] = amp[:, t] ** 2 * mask
+            r_fine = r_pred - fine / k0
+            los_fine = np.sqrt(np.maximum(r_fine**2 - along**2, 0)) - rs
+            if phase_based:
+                # robust: pulses a slip put ≥ λ/8 off the previous (phase-based) prediction
+                # do not pull the fit, unless that would drop most of a scatterer's pulses
+                misfit = los_fine - pred
+                misfit -= np.median(misfit, axis=0)[None, :]
+                keep = np.abs(misfit) < wavelength / 8
+                enough = keep.sum(axis=0) >= 0.5 * np.maximum((weights > 0).sum(axis=0), 1)
+                weights = weights * np.where(enough[None, :], keep, True)
+            phase_based = True
+            coef, const = _staging.fit_los(design, los_rows, los_fine, weights,
+                                           per_target_constant=True)
+            out.update(_split(model, coef, kh, los))
+            new_pred = np.einsum("tk,pkj,j->pt", los_rows, design, coef) + const[None, :]
+            change = np.max(np.abs(new_pred - pred - np.median(new_pred - pred, axis=0)))
+            pred = new_pred
+            if change < wavelength / 1000:
+                break
+        return out, pred, amp, valid
+
+    dev_params, pred, amp, valid = phase_stage(pred)
+    params.update(dev_params)
     record("phase", time.perf_counter() - t0, params)
 
     # ---- jitter -----------------------------------------------------------------------
@@ -689,7 +785,24 @@ def _cold_start(radar, scene, model, los, problem, compressed, x, near, sigma_sq
             normal += 1e-9 * np.trace(normal) / normal.shape[0] * np.eye(normal.shape[0])
             params["pointing"] = jnp.asarray(np.linalg.solve(normal, a.T @ (delta * sw[:, 0])))
         record("jitter", time.perf_counter() - t0, params)
-    return params
+    if not has_dev:
+        return params, None
+
+    def rephase(m3, half_window, keep=None):
+        """Deviation parameters re-unwrapped about the line of sight of ``m3`` (azimuth,
+        3) (Δy, Δz, δ_az): ℓ_t = −Δy sin ϑ_t + Δz cos ϑ_t per scatterer. With ``keep``
+        (azimuth,) bool, the profile is first refitted on the kept pulses only, the
+        others (where the fit is off by a slip) following the smooth model with its
+        data-free coefficients held near zero."""
+        prediction = np.asarray(m3)[:, :2] @ los_rows.T
+        if keep is not None:
+            w = np.broadcast_to(keep[:, None].astype(float), prediction.shape)
+            coef, const = _staging.fit_los(design, los_rows, prediction, w,
+                                           per_target_constant=False, ridge=1e-3)
+            prediction = np.einsum("tk,pkj,j->pt", los_rows, design, coef) + const[None, :]
+        return phase_stage(prediction, half_window)[0]
+
+    return params, rephase
 
 
 def _split(model, coef, kh, los):
