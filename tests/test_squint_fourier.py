@@ -199,9 +199,15 @@ def test_squinted_ideal_track_matches_exact(degrees):
 @pytest.mark.slow
 def test_valid_implies_accurate_full_grid():
     """Calibration on the full grid at full size; prints every case with its budgets
-    (``x`` = worst budget / threshold) and, for valid ones, the measured figures."""
+    (``x`` = worst budget / threshold) and, for valid ones, the measured figures.
+
+    Measured (240 cases, 19 min): 142 called valid, all accurate (worst margins: range
+    PSLR −0.30 dB for small deviation at 15°, 5440 m with the jitter, a systematic
+    ≈ −30 dB residual present with 1 mm as with 3 mm; azimuth IRW +0.54 % for moderate
+    deviation at 4°, 0.1 m fast, f = 0.15); of the 60 invalid cases simulated, 12 were
+    accurate nonetheless (the budgets are conservative, not tight)."""
     grid = itertools.product((4.0, 15.0), (1e-3, 3e-3, 2e-2, 0.1, 0.3),
-                             ("slow", "fast"), (0.05, 0.2), RANGES)
+                             ("slow", "fast"), (0.05, 0.15), RANGES)
     failures = []
     print("\nsquint rms[m] prof f     r[m]   method   verdict worst/thr  budgets | measured")
     for degrees, rms, profile, fraction, range_ in grid:
@@ -230,10 +236,13 @@ def test_valid_implies_accurate_full_grid():
 def test_seed002_table2_layout():
     """Seed 002 Table 2 (15°, mid-range, trajectory deviation): IRW/PSLR/ISLR of the
     exact model and the squinted simulators, same exact back-projection; printed, and
-    the simulators' figures within the acceptance tolerances of the exact model's."""
+    the simulators' figures within the acceptance tolerances of the exact model's.
+    1 cm rms with the seed 000 jitter: inside both methods' budgets at mid-range."""
     radar = sa.radar_of(15.0)
     scene = sa.target(radar, 5140.0)
-    motion = sa.motion_of(radar, 0.02, "slow", 0.05)
+    motion = sa.motion_of(radar, 0.01, "slow", 0.05)
+    for method in METHODS:
+        assert sj.validity(radar, scene, motion, method=method).valid, method
     rows = sa.metrics_rows(radar, scene, motion, METHODS)
     print("\nmethod               az IRW [m] PSLR [dB] ISLR [dB] | rg IRW [m] PSLR [dB] ISLR [dB]")
     for name, m in rows:
@@ -246,3 +255,35 @@ def test_seed002_table2_layout():
             for kind in ("pslr", "islr"):
                 d = getattr(m, f"{kind}_{axis}") - getattr(ref, f"{kind}_{axis}")
                 assert abs(d) <= 0.3, (name, kind, axis, d)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS)
+def test_reflectivity_grid_with_heights_at_squint(method):
+    """The inverse-Stolt (grid) path at 15°: a 24 × 12 grid with pyramid heights about
+    the beam crossing, mm-level (A) or 2 cm (B) deviations and the seed jitter, against
+    the exact model (measured: raw phase error 0.021 / 0.028 rad rms, raw NMSE −33.5 /
+    −31.6 dB)."""
+    radar = sa.radar_of(15.0)
+    n = NUM_PULSES
+    x = (np.arange(n) - (n - 1) / 2) * 0.25
+    squint = float(radar.squint)
+    az = 5140.0 * np.tan(squint) + (np.arange(24) - 12) * 0.25
+    rg = 5140.0 + (np.arange(12) - 6) * float(radar.range_spacing)
+    rng = np.random.default_rng(1)
+    gamma = rng.normal(size=(24, 12)) + 1j * rng.normal(size=(24, 12))
+    grid = sj.ReflectivityGrid(gamma, az, rg, height=sj.pyramid_height(az, rg, peak=40.0))
+    jitter = sj.seed_pointing_jitter(radar, x)
+    if method == "small_deviation":
+        motion = sj.Motion(vertical=np.full(n, 0.002) + 0.001 * x / x.max(), pointing=jitter)
+    else:
+        motion = sj.Motion(
+            horizontal=sj.smooth_deviation(x, key=1, rms=0.02, max_cycles=1, aperture=171.0),
+            vertical=sj.smooth_deviation(x, key=2, rms=0.02, max_cycles=1, aperture=171.0),
+            pointing=jitter)
+    kw = dict(num_pulses=n, num_range=320,
+              near_range=5140.0 / np.cos(squint) - 160 * float(radar.range_spacing))
+    ref = sj.simulate(radar, grid, motion, **kw)
+    raw = sj.simulate(radar, grid, motion, method=method, **kw)
+    assert sj.metrics.phase_error_rms(raw.data, ref.data) <= np.pi / 20
+    assert sj.metrics.nmse_db(raw.data, ref.data) <= -28.0
