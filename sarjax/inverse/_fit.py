@@ -305,7 +305,12 @@ def fit_motion(
     modulation) when ``initial`` is None; ``joint``: Levenberg–Marquardt on all motion
     parameters and the complex reflectivities (optimistix by default, float64; the
     Jacobian is forward-mode, one simulation plus three tangents per linearisation because
-    the model is pulse-local).
+    the model is pulse-local). After a cold start, a slipped phase unwrapping is detected
+    (the solver stops short, χ² ends above 1.03 (M − K), or some ±8-pulse stretch has a
+    mean χ² per pulse 1.2 times the median pulse's) and recovered: the profile is refitted
+    on the pulses at the noise level, every scatterer's phase is re-unwrapped about it and
+    the joint fit re-started (``recovery k`` stages, at most three); the result is the
+    lowest-χ² joint fit.
 
     Unobservable components are fixed and listed in ``result.fixed``: with unknown
     reflectivities the mean Δy and Δz over the illuminated pulses (a constant deviation
