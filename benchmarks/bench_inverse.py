@@ -259,7 +259,7 @@ def render(cases, mc, bp, lines, n_seeds, n_draws, load0, load1, pending, host):
                "| case | seeds passing | LOS rmse max [mm] (λ/20 = 1.57) | Δy rmse max [mm] | "
                "Δz rmse max [mm] | CRB Δy / Δz / LOS rms [mm] | |δ_m err| max [%] | "
                "|T_b err| max [%] | |φ₀ err| max [rad] | fit time median / max [s] | "
-               "first fit (compile) [s] |",
+               "first fit of the case [s] (compilation: the first Monte-Carlo draw) |",
                "|---|---|---|---|---|---|---|---|---|---|---|"]
         for label, rows in cases.items():
             e = lambda k, rows=rows: max(abs(r["err"][k]) for r in rows)
