@@ -41,6 +41,7 @@ from .processing import focus as focus  # noqa: E402
 from .validity import Budget as Budget  # noqa: E402
 from .validity import Validity as Validity  # noqa: E402
 from .validity import validity as validity  # noqa: E402
+from ._validate import SwathWarning as SwathWarning  # noqa: E402
 from . import inverse as inverse  # noqa: E402
 from .inverse import crb as crb  # noqa: E402
 from .inverse import fit_motion as fit_motion  # noqa: E402

@@ -338,6 +338,7 @@ def _choose_batched_method(radar, scene, motion, batch_size, **kwargs):
 def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
              azimuth_center, dtype, devices, memory_limit, options):
     """Validate, resolve the method and plan the call (everything but running it)."""
+    strict = _validate.check_arguments(radar, options)
     dtype = jnp.dtype(dtype)
     if dtype not in (jnp.complex64, jnp.complex128):
         raise ValueError(f"dtype={dtype} must be complex64 or complex128")
@@ -371,6 +372,7 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     simulator = _resolve_method(method, options)
     _validate.check_supported(simulator, radar, scene)
     simulator = simulator.prepare(radar, scene, acquisition)
+    _validate.check_model(simulator, radar, scene, motion, acquisition, strict)
     motion_bytes = sum(math.prod(np.shape(v)) * 8 for v in jax.tree_util.tree_leaves(motion))
     memory = _memory_plan(simulator, radar, scene, motion_bytes, acquisition, dtype,
                           batch_size, devices, memory_limit, name)
@@ -430,6 +432,10 @@ def simulate(
             now; see :mod:`sarjax._memory`). Over it the call runs fewer realizations at
             a time and (exact model) fewer pulses and scatterers per chunk; results do not
             depend on the chunking. :func:`simulation_memory` shows the plan.
+        strict: refuse, rather than warn about or run, input outside the model's
+            validity: the approximate methods' budgets (:func:`sarjax.validity`), a PRF
+            below the echoes' Doppler band (Fourier-domain methods) and scatterers whose
+            echoes miss the range window (see :func:`sarjax._validate.check_model`).
         **options: simulator options (e.g. ``pulse_chunk=``, ``scatterer_chunk=``).
 
     Returns:

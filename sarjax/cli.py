@@ -4,7 +4,8 @@ Every command takes ``--help``. Files are NetCDF-4 (:mod:`sarjax.io`): ``simulat
 raw data with every parameter of the run, ``focus`` an image carrying them on, so each
 file reproduces its run. Outputs are written atomically and never replace an existing
 file without ``--force``. Exit status 0 on success; on bad input one line
-``sarjax: error: …`` on stderr and status 2.
+``sarjax: error: …`` on stderr and status 2 (1 for an unexpected internal error, also
+one line; ``SARJAX_TRACEBACK=1`` shows its traceback).
 
 Configuration files (TOML) for ``simulate``::
 
@@ -35,9 +36,12 @@ Configuration files (TOML) for ``simulate``::
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
 import time
 import tomllib
+import warnings
 from pathlib import Path
 
 import click
@@ -70,6 +74,10 @@ def load_config(path=None, overrides=()) -> dict:
             config = tomllib.loads(path.read_text())
         except FileNotFoundError:
             raise _Fail(f"configuration {path} does not exist") from None
+        except IsADirectoryError:
+            raise _Fail(f"configuration {path} is a folder, not a TOML file") from None
+        except UnicodeDecodeError:
+            raise _Fail(f"configuration {path} is not a text (TOML) file") from None
         except tomllib.TOMLDecodeError as err:
             raise _Fail(f"{path}: {err}") from None
     for item in overrides:
@@ -91,44 +99,84 @@ def load_config(path=None, overrides=()) -> dict:
     unknown = set(config) - known
     if unknown:
         raise _Fail(f"unknown configuration entries {sorted(unknown)}; known: {sorted(known)}")
+    for section in known - {"preset"}:
+        if not isinstance(config.get(section, {}), dict):
+            raise _Fail(f"[{section}] must be a table, got {section} = {config[section]!r}")
     return config
+
+
+def _number(name, value, *, integer=False, minimum=None, positive=False):
+    """A configuration value as a finite float (or int), naming it when it is not one."""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
+        raise ValueError(f"{name}={value!r} must be {kind}")
+    if not math.isfinite(value):
+        raise ValueError(f"{name}={value!r} must be finite")
+    if positive and value <= 0:
+        raise ValueError(f"{name}={value!r} must be > 0")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{name}={value!r} must be ≥ {minimum}")
+    return int(value) if integer else float(value)
+
+
+def _numbers(name, value):
+    """A configuration list of numbers (or one number) as a 1-D float array."""
+    import numpy as np
+
+    items = value if isinstance(value, list) else [value]
+    for item in items:
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise ValueError(f"{name}={value!r} must be a number or a list of numbers")
+    return np.asarray(items, float)
 
 
 def build_run(config: dict):
     """(radar, scene, motion, simulate keyword arguments) from a configuration dict."""
     import numpy as np
 
-    from . import presets
+    from . import _validate, presets
     from .motion import Motion, seed_pointing_jitter, smooth_deviation
     from .scene import PointTargets
 
     preset = config.get("preset", "airborne")
-    if preset not in _PRESETS:
+    if not isinstance(preset, str) or preset not in _PRESETS:
         raise ValueError(f"preset={preset!r}; choose one of {sorted(_PRESETS)}")
-    radar = getattr(presets, _PRESETS[preset])(**config.get("radar", {}))
+    radar_cfg = dict(config.get("radar", {}))
+    for key, value in radar_cfg.items():
+        radar_cfg[key] = _number(f"radar.{key}", value,
+                                 integer=key in ("num_pulses", "num_range"))
+    radar = getattr(presets, _PRESETS[preset])(**radar_cfg)
+    _validate.check_radar(radar)  # before any number is derived from it
     scene_cfg = dict(config.get("scene", {}))
     if "azimuth" not in scene_cfg or "range" not in scene_cfg:
         raise ValueError("the configuration needs [scene] azimuth = [...] and range = [...]")
-    amplitude = np.asarray(scene_cfg.pop("reflectivity", np.ones(len(scene_cfg["azimuth"]))),
-                           float)
-    phase = np.asarray(scene_cfg.pop("reflectivity_phase", 0.0), float)
+    azimuth = _numbers("scene.azimuth", scene_cfg.pop("azimuth"))
+    range_ = _numbers("scene.range", scene_cfg.pop("range"))
+    amplitude = (_numbers("scene.reflectivity", scene_cfg.pop("reflectivity"))
+                 if "reflectivity" in scene_cfg else np.ones(azimuth.size))
+    phase = _numbers("scene.reflectivity_phase", scene_cfg.pop("reflectivity_phase", 0.0))
     height = scene_cfg.pop("height", None)
-    azimuth, range_ = scene_cfg.pop("azimuth"), scene_cfg.pop("range")
+    height = None if height is None else _numbers("scene.height", height)
+    if phase.size not in (1, amplitude.size):
+        raise ValueError(f"scene.reflectivity_phase has {phase.size} values, "
+                         f"scene.reflectivity {amplitude.size}")
     if scene_cfg:
         raise ValueError(f"unknown [scene] entries {sorted(scene_cfg)}")
     scene = PointTargets(azimuth=azimuth, range=range_,
                          reflectivity=amplitude * np.exp(1j * phase), height=height)
     sim = dict(config.get("simulate", {}))
-    num_pulses = int(sim.pop("num_pulses", radar.num_pulses))
-    azimuth_center = float(sim.get("azimuth_center", 0.0))
+    num_pulses = _number("simulate.num_pulses", sim.pop("num_pulses", radar.num_pulses),
+                         integer=True, positive=True)
+    azimuth_center = _number("simulate.azimuth_center", sim.get("azimuth_center", 0.0))
     x = azimuth_center + (np.arange(num_pulses) - (num_pulses - 1) / 2) * float(
         radar.azimuth_spacing)
     motion_cfg = dict(config.get("motion", {}))
-    rms = float(motion_cfg.pop("deviation_rms", 0.0))
-    cycles = float(motion_cfg.pop("max_cycles", 1.0))
-    seed = int(motion_cfg.pop("seed", 2017))
-    jitter = float(motion_cfg.pop("jitter", 0.0))
-    period = float(motion_cfg.pop("jitter_period", 0.1))
+    rms = _number("motion.deviation_rms", motion_cfg.pop("deviation_rms", 0.0), minimum=0)
+    cycles = _number("motion.max_cycles", motion_cfg.pop("max_cycles", 1.0), positive=True)
+    seed = _number("motion.seed", motion_cfg.pop("seed", 2017), integer=True, minimum=0)
+    jitter = _number("motion.jitter", motion_cfg.pop("jitter", 0.0), minimum=0)
+    period = _number("motion.jitter_period", motion_cfg.pop("jitter_period", 0.1),
+                     positive=True)
     if motion_cfg:
         raise ValueError(f"unknown [motion] entries {sorted(motion_cfg)}")
     footprint = float(radar.footprint(radar.reference_range))
@@ -141,6 +189,8 @@ def build_run(config: dict):
                                       period_fraction=period) if jitter else None,
     )
     sim.setdefault("method", "time_domain")
+    if not isinstance(sim["method"], str):
+        raise ValueError(f"simulate.method={sim['method']!r} must be a method name")
     sim["num_pulses"] = num_pulses
     return radar, scene, motion, sim
 
@@ -155,11 +205,17 @@ def simulate_config(config: dict):
 
     radar, scene, motion, sim = build_run(config)
     sim = dict(sim)
-    method, dtype = sim.pop("method"), np.dtype(sim.pop("dtype", "complex128"))
+    method, dtype = sim.pop("method"), sim.pop("dtype", "complex128")
+    try:
+        dtype = np.dtype(dtype)
+    except TypeError:
+        raise ValueError(f"simulate.dtype={dtype!r}: choose 'complex64' or 'complex128'") from None
     num_pulses = sim.pop("num_pulses")
-    num_range = int(sim.pop("num_range", radar.num_range))
-    near_range = float(sim.pop("near_range", radar.near_range))
-    azimuth_center = float(sim.pop("azimuth_center", 0.0))
+    num_range = _number("simulate.num_range", sim.pop("num_range", radar.num_range),
+                        integer=True, positive=True)
+    near_range = _number("simulate.near_range", sim.pop("near_range", float(radar.near_range)),
+                         positive=True)
+    azimuth_center = _number("simulate.azimuth_center", sim.pop("azimuth_center", 0.0))
     raw = simulate(radar, scene, None if motion.is_ideal else motion, method=method,
                    num_pulses=num_pulses, num_range=num_range, near_range=near_range,
                    azimuth_center=azimuth_center, dtype=dtype, **sim)
@@ -187,6 +243,18 @@ def _out_option(help_text):
 
 
 _force = click.option("--force", is_flag=True, help="replace an existing output file")
+
+
+def _check_output(out, force):
+    """Refuse an output path before any work: an existing file without ``--force``, a
+    folder, or a missing parent folder."""
+    path = Path(out)
+    if path.is_dir():
+        raise _Fail(f"output {path} is a folder")
+    if path.exists() and not force:
+        raise _Fail(f"{path} exists (pass --force to replace it)")
+    if not path.parent.is_dir():
+        raise _Fail(f"folder {path.parent} of the output does not exist")
 
 
 @cli.command(context_settings=_CONTEXT)
@@ -219,6 +287,7 @@ def simulate(config, out, overrides, force):
     from . import io
 
     cfg = load_config(config, overrides)
+    _check_output(out, force)
     with _progress(2, "simulate") as bar:
         raw, radar, scene, motion, attrs = simulate_config(cfg)
         bar.update()
@@ -246,6 +315,7 @@ def focus(raw_file, out, method, moco, weighting, nominal_track, force):
     from . import io
     from .processing import focus as focus_
 
+    _check_output(out, force)
     run = _load(raw_file, "RawData")
     motion = None if nominal_track else run.motion
     kwargs = {}
@@ -334,6 +404,7 @@ def fit(raw_file, out, png, force):
     except ImportError:
         raise _Fail("motion fitting (sarjax.inverse.fit_motion) is not available in this "
                     "installation") from None
+    _check_output(out, force)
     run = _load(raw_file, "RawData")
     if run.scene is None:
         raise _Fail(f"{raw_file} holds no scene: the fit needs the calibration targets")
@@ -423,6 +494,7 @@ def export(raw_file, out, fmt, track, latitude, longitude, heading, side, force)
     """Export a raw-data file to an NGA standard file through sarkit."""
     from . import export as export_
 
+    _check_output(out, force)
     run = _load(raw_file, "RawData")
     reference = export_.GeoReference(latitude=latitude, longitude=longitude,
                                       heading=heading, side_of_track=side)
@@ -445,6 +517,7 @@ def plot(file, out, dynamic_range, force):
     from . import plot as plot_
     from .export._common import atomic_write
 
+    _check_output(out, force)
     run = _load(file, None)
     if type(run.product).__name__ == "RawData":
         fig = plot_.raw_amplitude_phase(run.product)
@@ -469,10 +542,17 @@ def _load(path, kind):
     return run
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    text = " ".join(str(message).split())
+    print(f"sarjax: warning: {text} ({category.__name__})", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``sarjax`` command; returns the exit status."""
     try:
-        result = cli.main(args=argv, prog_name="sarjax", standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning  # one line each, as errors are
+            result = cli.main(args=argv, prog_name="sarjax", standalone_mode=False)
     except click.exceptions.Exit as exit_:
         return int(exit_.exit_code)
     except click.exceptions.Abort:
@@ -481,10 +561,17 @@ def main(argv=None) -> int:
     except click.exceptions.ClickException as err:
         print(f"sarjax: error: {err.format_message()}", file=sys.stderr)
         return 2
-    except (_Fail, ValueError, FileExistsError, FileNotFoundError, ImportError) as err:
+    except (_Fail, ValueError, OSError, ImportError, Warning) as err:  # Warning: -W error
         message = " ".join(str(err).split())
         print(f"sarjax: error: {message}", file=sys.stderr)
         return 2
+    except Exception as err:  # a bug: still one line (the traceback on request)
+        if os.environ.get("SARJAX_TRACEBACK"):
+            raise
+        message = " ".join(str(err).split())
+        print(f"sarjax: error: internal error ({type(err).__name__}: {message}); "
+              "SARJAX_TRACEBACK=1 shows where", file=sys.stderr)
+        return 1
     return result if isinstance(result, int) else 0
 
 

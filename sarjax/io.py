@@ -74,15 +74,27 @@ def radar_from_attributes(attrs: dict, prefix: str = "") -> Radar:
     from . import antenna
 
     get = lambda k: attrs[prefix + k]
+
+    def number(name, kind):
+        try:
+            value = get(name)
+        except KeyError:
+            raise ValueError(f"radar parameter {name!r} missing from the file") from None
+        try:
+            return kind(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"radar parameter {name}={value!r} in the file is not a "
+                             f"{kind.__name__}") from None
+
+    kwargs = {name: number(name, float) for name in _RADAR_SCALARS}
+    kwargs["num_pulses"] = number("num_pulses", int)
+    kwargs["num_range"] = number("num_range", int)
     try:
-        kwargs = {name: float(get(name)) for name in _RADAR_SCALARS}
-        kwargs["num_pulses"] = int(get("num_pulses"))
-        kwargs["num_range"] = int(get("num_range"))
         pattern = str(get("pattern"))
-    except KeyError as err:
-        raise ValueError(f"radar parameter {err.args[0]!r} missing from the file") from None
+    except KeyError:
+        raise ValueError("radar parameter 'pattern' missing from the file") from None
     if pattern == "GaussianPattern":
-        kwargs["pattern"] = antenna.GaussianPattern(width=float(get("pattern_width")))
+        kwargs["pattern"] = antenna.GaussianPattern(width=number("pattern_width", float))
     elif pattern != "Sinc2Pattern":
         raise ValueError(f"unknown antenna pattern {pattern!r} in the file")
     return Radar(**kwargs)
@@ -180,6 +192,8 @@ def from_xarray(dataset):
         if kind not in _PRODUCTS:
             raise ValueError(f"dataset attribute sarjax_product={kind!r} is neither RawData "
                              "nor Image")
+        if _VARIABLE[kind] not in dataset:
+            raise ValueError(f"the {kind} file holds no {_VARIABLE[kind]!r} variable")
         array, method = dataset[_VARIABLE[kind]], str(dataset.attrs.get("method", ""))
     if array.dims != ("azimuth", "range"):
         raise ValueError(f"dims {array.dims} must be ('azimuth', 'range')")
@@ -300,8 +314,12 @@ def open_dataset(path):
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path} does not exist")
-    with xr.open_dataset(path, engine=_engine()) as ds:
-        ds = ds.load()
+    try:
+        with xr.open_dataset(path, engine=_engine()) as ds:
+            ds = ds.load()
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"cannot read {path}: not a NetCDF-4/HDF5 file sarjax can open "
+                         f"({type(err).__name__}: {err})") from err
     for name in [n for n in ds.data_vars if n.endswith("_real")]:
         base = name.removesuffix("_real")
         if f"{base}_imag" in ds:
@@ -313,8 +331,16 @@ def open_dataset(path):
 
 def load(path) -> Run:
     """Read a file written by :func:`save`."""
+    from . import _validate
+
     ds = open_dataset(path)
     attrs = dict(ds.attrs)
-    radar = (radar_from_attributes(attrs, "radar_")
-             if "radar_carrier_frequency" in attrs else None)
-    return Run(from_xarray(ds), radar, _scene_from(ds), _motion_from(ds), attrs)
+    try:
+        radar = (radar_from_attributes(attrs, "radar_")
+                 if "radar_carrier_frequency" in attrs else None)
+        if radar is not None:
+            _validate.check_radar(radar)
+        return Run(from_xarray(ds), radar, _scene_from(ds), _motion_from(ds), attrs)
+    except (KeyError, TypeError, ValueError) as err:
+        message = err.args[0] if isinstance(err, KeyError) and err.args else err
+        raise ValueError(f"{path} is not a valid sarjax file: {message}") from None

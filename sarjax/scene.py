@@ -20,6 +20,18 @@ def _complex(v):
     return jnp.asarray(v, dtype=complex)
 
 
+def _array(owner, name, value, dtype):
+    """``value`` as an array of ``dtype``, or a ValueError naming ``owner.name`` (complex
+    values for a real field are refused, not truncated)."""
+    if dtype is float and np.iscomplexobj(value):
+        raise ValueError(f"{owner}.{name} must be real, got complex values")
+    try:
+        return jnp.asarray(value, dtype=dtype)
+    except (TypeError, ValueError) as err:
+        kind = "real" if dtype is float else "complex"
+        raise ValueError(f"{owner}.{name} must be {kind} numbers ({err})") from None
+
+
 class PointTargets(eqx.Module):
     """A set of point scatterers.
 
@@ -49,20 +61,20 @@ class PointTargets(eqx.Module):
         velocity_range=None,
         velocity_azimuth=None,
     ):
-        azimuth = jnp.atleast_1d(jnp.asarray(azimuth, dtype=float))
+        azimuth = jnp.atleast_1d(_array("PointTargets", "azimuth", azimuth, float))
         n = azimuth.shape[0]
 
-        def fill(v, dtype):
+        def fill(name, v, dtype):
             if v is None:
                 return jnp.zeros(n, dtype) if dtype is float else jnp.ones(n, dtype)
-            return jnp.atleast_1d(jnp.asarray(v, dtype=dtype))
+            return jnp.atleast_1d(_array("PointTargets", name, v, dtype))
 
         self.azimuth = azimuth
-        self.range = jnp.atleast_1d(jnp.asarray(range, dtype=float))
-        self.reflectivity = fill(reflectivity, complex)
-        self.height = fill(height, float)
-        self.velocity_range = fill(velocity_range, float)
-        self.velocity_azimuth = fill(velocity_azimuth, float)
+        self.range = jnp.atleast_1d(_array("PointTargets", "range", range, float))
+        self.reflectivity = fill("reflectivity", reflectivity, complex)
+        self.height = fill("height", height, float)
+        self.velocity_range = fill("velocity_range", velocity_range, float)
+        self.velocity_azimuth = fill("velocity_azimuth", velocity_azimuth, float)
 
     def __check_init__(self):
         n = self.azimuth.shape
@@ -98,12 +110,11 @@ class ReflectivityGrid(eqx.Module):
     height: jnp.ndarray = eqx.field(converter=_real)
 
     def __init__(self, reflectivity, azimuth, range, height=None):
-        self.reflectivity = jnp.asarray(reflectivity, dtype=complex)
-        self.azimuth = jnp.asarray(azimuth, dtype=float)
-        self.range = jnp.asarray(range, dtype=float)
-        self.height = (
-            jnp.zeros(self.reflectivity.shape) if height is None else jnp.asarray(height, float)
-        )
+        self.reflectivity = _array("ReflectivityGrid", "reflectivity", reflectivity, complex)
+        self.azimuth = _array("ReflectivityGrid", "azimuth", azimuth, float)
+        self.range = _array("ReflectivityGrid", "range", range, float)
+        self.height = (jnp.zeros(self.reflectivity.shape) if height is None
+                       else _array("ReflectivityGrid", "height", height, float))
 
     def __check_init__(self):
         shape = self.reflectivity.shape

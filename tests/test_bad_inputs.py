@@ -1,5 +1,7 @@
-"""Bad input raises ValueError naming the offending field or value; valid edge cases
-give finite data."""
+"""The bad-input catalogue: bad input raises ValueError naming the offending field or
+value (Python API, ``sarjax`` command line, file loading); valid edge cases give finite
+data; strict mode refuses input outside a model's validity; the command line answers bad
+input with one line on stderr and a non-zero status, never a traceback."""
 
 from __future__ import annotations
 
@@ -82,7 +84,8 @@ def test_motion_lengths_differ_between_components():
 
 
 @pytest.mark.parametrize("field", ["horizontal", "vertical", "pointing"])
-@pytest.mark.parametrize("shape", [(NUM_PULSES, 1), (1, NUM_PULSES), (2, NUM_PULSES // 2), ()])
+@pytest.mark.parametrize("shape", [(NUM_PULSES, 1), (2, 3, NUM_PULSES), (2, NUM_PULSES // 2),
+                                   ()])
 def test_motion_not_one_dimensional(field, shape):
     motion = sj.Motion(**{field: np.zeros(shape)})
     expected = re.escape(f"motion.{field} has shape {shape}, expected ({NUM_PULSES},)")
@@ -327,7 +330,9 @@ def test_target_at_swath_edge(edge):
 
 def test_target_far_outside_window_gives_zeros():
     scene = _scene(azimuth=[0.0], range=[9000.0], reflectivity=[1.0], height=[0.0])
-    raw = _simulate(scene=scene)
+    with pytest.warns(sj.SwathWarning, match=r"no scatterer's echo reaches the range window "
+                                             r"r' = 4900 … 5376\.67 m \(scene\.range = \[9000\.\]"):
+        raw = _simulate(scene=scene)
     _assert_finite(raw, expect_signal=False)
     assert np.all(np.asarray(raw.data) == 0)
 
@@ -361,3 +366,510 @@ def test_unsupported_squint_and_moving_targets_are_refused():
     scene = sj.PointTargets(azimuth=[0.0], range=[5140.0], velocity_range=[1.0])
     with pytest.raises(ValueError, match="velocit"):
         _simulate(scene=scene, method="fourier_2d")
+
+
+# ---- wrong dtypes ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("field, value, expected", [
+    ("azimuth", [1j, 0.0], r"PointTargets\.azimuth must be real, got complex"),
+    ("azimuth", np.array([0.0, 1.0]) + 0j, r"PointTargets\.azimuth must be real"),
+    ("range", ["far", "farther"], r"PointTargets\.range must be real numbers"),
+    ("height", [None, 0.0], r"PointTargets\.height must be real numbers"),
+    ("reflectivity", ["bright", 1.0], r"PointTargets\.reflectivity must be complex numbers"),
+])
+def test_point_targets_wrong_dtype(field, value, expected):
+    """Complex positions are refused, never silently truncated to their real part."""
+    with pytest.raises(ValueError, match=expected):
+        _scene(**{field: value})
+
+
+def test_reflectivity_grid_wrong_dtype():
+    with pytest.raises(ValueError, match=r"ReflectivityGrid\.range must be real"):
+        sj.ReflectivityGrid(np.ones((2, 2)), [0.0, 1.0], [5100.0 + 1j, 5101.0])
+
+
+def test_motion_complex_is_refused():
+    with pytest.raises(ValueError, match=r"motion arrays must be real, got dtype complex"):
+        sj.Motion(horizontal=np.zeros(NUM_PULSES) * 1j)
+
+
+@pytest.mark.parametrize("radar", [None, "airborne", {"prf": 16.0}])
+def test_radar_of_wrong_type(radar):
+    with pytest.raises(ValueError, match=rf"radar={type(radar).__name__} is not a sarjax\.Radar"):
+        sj.simulate(radar, _scene(), num_pulses=NUM_PULSES, num_range=NUM_RANGE)
+
+
+# ---- targets outside the swath; strict mode ----------------------------------------
+
+# a radar whose PRF samples the Doppler band: the strict aliasing check stays quiet
+WELL_SAMPLED = dict(prf=400.0)
+
+
+def test_doppler_band_full_aperture_and_short_window():
+    """2v/L once the window holds the beam's half-width; 2vA/(λr) for a shorter one."""
+    radar = sj.presets.airborne_xband()  # v = 100 m/s, L = 1 m, λ = 3.1 cm
+    scene = sj.PointTargets(azimuth=[0.0], range=[5140.0])
+    long = sj.Acquisition(num_pulses=1024, num_range=8, near_range=5000.0, azimuth_center=0.0)
+    assert sj._validate.doppler_band(radar, scene, long) == pytest.approx(200.0, rel=1e-3)
+    short = sj.Acquisition(num_pulses=64, num_range=8, near_range=5000.0, azimuth_center=0.0)
+    span = 63 * float(radar.azimuth_spacing)  # 15.75 m < the half-width λr/(2L) = 80 m
+    expected = 2 * 100.0 * span / (float(radar.wavelength) * 5140.0)
+    assert sj._validate.doppler_band(radar, scene, short) == pytest.approx(expected, rel=1e-4)
+    # a target beyond the window's end by more than the half-width: no visible pulse
+    far = sj.PointTargets(azimuth=[500.0], range=[5140.0])
+    assert sj._validate.doppler_band(radar, far, short) == 0.0
+
+
+@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation", "moderate_deviation",
+                                    "high_speed", "chirp_scaling"])
+def test_strict_refuses_aliased_azimuth_sampling_for_fourier_methods(method):
+    """PRF = 16 Hz ≪ 2v/L = 200 Hz: the Fourier-domain synthesis loses the folded band."""
+    with pytest.raises(ValueError, match=r"strict=True: radar\.prf=16 Hz is below the "
+                                         r"Doppler band 200 Hz .*2v/L = 200 Hz"):
+        _simulate(method=method, strict=True)
+
+
+def test_strict_accepts_aliased_sampling_for_the_exact_model():
+    """The exact model samples the echo at the pulses: its aliased record is right."""
+    strict = _simulate(strict=True)
+    np.testing.assert_array_equal(np.asarray(strict.data), np.asarray(_simulate().data))
+
+
+def test_strict_refuses_targets_outside_the_swath():
+    scene = _scene(range=[5100.0, 9000.0])
+    with pytest.raises(ValueError, match=r"strict=True: 1 of 2 scatterers' echoes miss the "
+                                         r"range window r' = 4900 … 5376\.67 m "
+                                         r"\(scene\.range = \[9000\.\]"):
+        _simulate(scene=scene, strict=True)
+    _assert_finite(_simulate(scene=scene))  # without strict: simulated, no warning
+    with pytest.raises(ValueError, match=r"no scatterer's echo reaches the range window"):
+        _simulate(scene=_scene(range=[9000.0, 9100.0]), strict=True)
+
+
+def test_swath_check_counts_the_echo_extent():
+    """Half a pulse (cτ/4 = 75 m) beyond the window's ends still reaches it; a grid scene
+    is checked cell by cell."""
+    radar = _radar()
+    far = NEAR_RANGE + (NUM_RANGE - 1) * float(radar.range_spacing)
+    inside = _scene(range=[NEAR_RANGE - 70.0, far + 70.0])
+    _assert_finite(_simulate(scene=inside, strict=True))
+    grid = sj.ReflectivityGrid(np.ones((2, 2)), [0.0, 5.0], [5100.0, far + 200.0])
+    with pytest.raises(ValueError, match=r"2 of 4 scatterers' echoes miss"):
+        _simulate(scene=grid, strict=True)
+
+
+def _deviating(radar, amplitude):
+    x = _pulse_azimuths(radar)
+    return sj.Motion(horizontal=amplitude * np.sin(2 * np.pi * x / 7.0),
+                     vertical=0.5 * amplitude * np.cos(2 * np.pi * x / 5.0))
+
+
+@pytest.mark.parametrize("method, amplitude, budget", [
+    ("fourier_2d", 0.01, "epsilon_motion"),
+    ("small_deviation", 0.5, "epsilon_1[123]"),
+    ("moderate_deviation", 3.0, "epsilon_1[12]"),
+])
+def test_strict_refuses_approximations_outside_their_validity(method, amplitude, budget):
+    radar = _radar(**WELL_SAMPLED)
+    motion = _deviating(radar, amplitude)
+    report = sj.validity(radar, _scene(), motion, method=method, num_pulses=NUM_PULSES)
+    assert not report.valid, str(report)
+    with pytest.raises(ValueError, match=rf"strict=True: method='{method}' is outside its "
+                                         rf"validity: {budget}=[\d.e+-]+ > 0\.1"):
+        _simulate(radar, motion=motion, method=method, strict=True)
+
+
+def test_strict_runs_approximations_within_their_validity_unchanged():
+    radar = _radar(**WELL_SAMPLED)
+    assert sj.validity(radar, _scene(), method="fourier_2d", num_pulses=NUM_PULSES).valid
+    strict = _simulate(radar, method="fourier_2d", strict=True)
+    plain = _simulate(radar, method="fourier_2d")
+    np.testing.assert_array_equal(np.asarray(strict.data), np.asarray(plain.data))
+    _assert_finite(strict)
+
+
+@pytest.mark.parametrize("strict", ["yes", 1, None])
+def test_strict_must_be_a_bool(strict):
+    with pytest.raises(ValueError, match=re.escape(f"strict={strict!r} must be True or False")):
+        _simulate(strict=strict)
+
+
+# ---- focus -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def raw():
+    return _simulate()
+
+
+def _with_data(raw, data):
+    return sj.RawData(data=data, azimuth=raw.azimuth, range=raw.range, method=raw.method)
+
+
+@pytest.mark.parametrize("method", ["omega_k", "backprojection", "exact_backprojection"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, complex(0, np.nan)])
+def test_focus_non_finite_raw_data(raw, method, bad):
+    data = np.array(raw.data)
+    data[7, 11] = bad
+    with pytest.raises(ValueError, match=r"raw\.data has non-finite samples at "
+                                         r"\(pulse, sample\) \[\(7, 11\)\]"):
+        sj.focus(_radar(), _with_data(raw, data), method=method)
+
+
+@pytest.mark.parametrize("field, value, expected", [
+    ("prf", 0.0, r"radar\.prf=0\.0 must be > 0"),
+    ("bandwidth", np.nan, r"radar\.bandwidth=nan is not finite"),
+    ("velocity", -100.0, r"radar\.velocity=-100\.0 must be > 0"),
+    ("chirp_duration", np.inf, r"radar\.chirp_duration=inf is not finite"),
+    ("sampling_rate", 30e6, r"radar\.sampling_rate=3e\+07 Hz is below radar\.bandwidth"),
+])
+def test_focus_bad_radar(raw, field, value, expected):
+    with pytest.raises(ValueError, match=expected):
+        sj.focus(_radar(**{field: value}), raw)
+
+
+@pytest.mark.parametrize("method", ["omega_k", "backprojection"])
+@pytest.mark.parametrize("field", ["horizontal", "vertical", "pointing"])
+def test_focus_non_finite_or_short_motion(raw, method, field):
+    values = np.zeros(NUM_PULSES)
+    values[3] = np.nan
+    with pytest.raises(ValueError, match=rf"motion\.{field} has non-finite values \[nan\] "
+                                         r"at pulses \[3\]"):
+        sj.focus(_radar(), raw, method=method, motion=sj.Motion(**{field: values}))
+    with pytest.raises(ValueError, match=rf"motion\.{field} has shape \(47,\), expected "
+                                         rf"\({NUM_PULSES},\)"):
+        sj.focus(_radar(), raw, method=method,
+                 motion=sj.Motion(**{field: np.zeros(NUM_PULSES - 1)}))
+
+
+def test_focus_axes_must_match_the_data(raw):
+    short = sj.RawData(data=raw.data, azimuth=raw.azimuth[:-1], range=raw.range)
+    with pytest.raises(ValueError, match=r"raw\.azimuth has shape \(47,\), raw\.data has "
+                                         r"shape \(48, 160\)"):
+        sj.focus(_radar(), short)
+    bad = np.array(raw.range)
+    bad[0] = np.nan
+    with pytest.raises(ValueError, match=r"raw\.range has non-finite values \[nan\]"):
+        sj.focus(_radar(), sj.RawData(data=raw.data, azimuth=raw.azimuth, range=bad))
+    with pytest.raises(ValueError, match=r"radar=NoneType is not a sarjax\.Radar"):
+        sj.focus(None, raw)
+
+
+# ---- files -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def raw_file(raw, tmp_path_factory):
+    from sarjax import io
+
+    path = tmp_path_factory.mktemp("files") / "raw.nc"
+    attrs = io.simulate_attributes(method="time_domain", num_pulses=NUM_PULSES,
+                                   num_range=NUM_RANGE, near_range=NEAR_RANGE)
+    io.save(path, raw, radar=_radar(), scene=_scene(), attrs=attrs)
+    return path
+
+
+def _foreign_netcdf(path):
+    import xarray as xr
+
+    xr.Dataset({"temperature": ("time", np.arange(3.0))}).to_netcdf(path, engine="h5netcdf")
+
+
+def _tampered(path, source, **changes):
+    """A copy of ``source`` with attributes changed or (value None) removed."""
+    import xarray as xr
+
+    with xr.open_dataset(source, engine="h5netcdf") as ds:
+        ds = ds.load()
+    for key, value in changes.items():
+        if value is None:
+            del ds.attrs[key]
+        else:
+            ds.attrs[key] = value
+    ds.to_netcdf(path, engine="h5netcdf")
+
+
+def _dropped(path, source, *variables):
+    import xarray as xr
+
+    with xr.open_dataset(source, engine="h5netcdf") as ds:
+        ds.load().drop_vars(list(variables)).to_netcdf(path, engine="h5netcdf")
+
+
+BAD_FILES = {
+    # name: (how to make it from the good raw file, message of io.load)
+    "truncated": (lambda p, src: p.write_bytes(src.read_bytes()[: src.stat().st_size // 2]),
+                  r"cannot read .*truncated\.nc: not a NetCDF-4/HDF5 file sarjax can open "
+                  r"\(OSError: .*truncated file"),
+    "text": (lambda p, src: p.write_text("preset = 'airborne'\n"),
+             r"cannot read .*text\.nc: not a NetCDF-4/HDF5 file .*signature not found"),
+    "empty": (lambda p, src: p.write_bytes(b""), r"cannot read .*empty\.nc"),
+    "foreign": (lambda p, src: _foreign_netcdf(p),
+                r"foreign\.nc is not a valid sarjax file: dataset attribute "
+                r"sarjax_product=None is neither RawData nor Image"),
+    "negative_prf": (lambda p, src: _tampered(p, src, radar_prf=-400.0),
+                     r"negative_prf\.nc is not a valid sarjax file: radar\.prf=-400\.0 "
+                     r"must be > 0"),
+    "text_prf": (lambda p, src: _tampered(p, src, radar_prf="fast"),
+                 r"radar parameter prf='fast' in the file is not a float"),
+    "no_bandwidth": (lambda p, src: _tampered(p, src, radar_bandwidth=None),
+                     r"radar parameter 'bandwidth' missing from the file"),
+    "no_samples": (lambda p, src: _dropped(p, src, "raw_real", "raw_imag"),
+                   r"the RawData file holds no 'raw' variable"),
+    "half_scene": (lambda p, src: _dropped(p, src, "scatterer_range"),
+                   r"half_scene\.nc is not a valid sarjax file: .*scatterer_range"),
+}
+
+
+@pytest.fixture(scope="module")
+def bad_files(raw_file, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bad_files")
+    paths = {}
+    for name, (make, _) in BAD_FILES.items():
+        paths[name] = folder / f"{name}.nc"
+        make(paths[name], raw_file)
+    return paths
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_loading_a_bad_file(bad_files, name):
+    from sarjax import io
+
+    with pytest.raises(ValueError, match=BAD_FILES[name][1]):
+        io.load(bad_files[name])
+
+
+def test_save_refuses_existing_and_missing_paths(raw, tmp_path):
+    from sarjax import io
+
+    path = io.save(tmp_path / "raw.nc", raw)
+    before = path.read_bytes()
+    with pytest.raises(FileExistsError, match=r"raw\.nc exists \(pass overwrite=True"):
+        io.save(path, raw)
+    with pytest.raises(FileNotFoundError, match=r"folder .*missing does not exist"):
+        io.save(tmp_path / "missing" / "raw.nc", raw)
+    assert path.read_bytes() == before
+
+
+def test_writes_are_atomic(raw, tmp_path, monkeypatch):
+    """A write that fails half-way leaves neither a partial file nor debris, and an
+    existing file untouched even with overwrite=True."""
+    import xarray as xr
+
+    from sarjax import io
+
+    path = io.save(tmp_path / "raw.nc", raw)
+    before = path.read_bytes()
+
+    def crash(self, target, *args, **kwargs):
+        with open(target, "wb") as f:
+            f.write(b"\x89HDF\r\n\x1a\n half a file")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", crash)
+    with pytest.raises(OSError, match="disk full"):
+        io.save(tmp_path / "new.nc", raw)
+    with pytest.raises(OSError, match="disk full"):
+        io.save(path, raw, overwrite=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["raw.nc"]
+    assert path.read_bytes() == before
+
+
+# ---- the command line --------------------------------------------------------------
+
+CONFIG = """
+preset = "airborne"
+[radar]
+num_pulses = 33
+num_range = 64
+[scene]
+azimuth = [0.0, 2.0]
+range = [5140.0, 5150.0]
+[simulate]
+near_range = 5130.0
+"""
+
+
+def _cli(*args):
+    import sarjax.cli
+
+    return sarjax.cli.main([str(a) for a in args])
+
+
+def _one_line_error(capsys, status, code=2):
+    err = capsys.readouterr().err
+    assert status == code, err
+    assert err.startswith("sarjax: error: ") and err.count("\n") == 1, err
+    assert "Traceback" not in err
+    return err
+
+
+# (config edit: (section line or None, text appended), --set overrides, message)
+CLI_CONFIG_CASES = {
+    "malformed_toml": ("[radar\nprf = 1\n", (), r"run\.toml: .*\(at line \d+, column \d+\)"),
+    "unknown_section": ("[wobble]\nx = 1\n", (), r"unknown configuration entries \['wobble'\]"),
+    "unknown_scene_key": ("", ("scene.colour=1",), r"unknown \[scene\] entries \['colour'\]"),
+    "unknown_motion_key": ("", ("motion.wobble=2",), r"unknown \[motion\] entries \['wobble'\]"),
+    "unknown_simulate_option": ("", ("simulate.turbo=true",),
+                                r"unknown option\(s\) \['turbo'\] for method='time_domain'"),
+    "unknown_radar_key": ("", ("radar.frequency=9e9",),
+                          r"unknown radar parameter\(s\) \['frequency'\]"),
+    "radar_not_a_table": ("", ("radar=5",), r"\[radar\] must be a table, got radar = 5"),
+    "set_without_value": ("", ("radar.prf",), r"--set 'radar\.prf': expected section\.key=value"),
+    "prf_text": ("", ("radar.prf='fast'",), r"radar\.prf='fast' must be a number"),
+    "prf_infinite": ("", ("radar.prf=inf",), r"radar\.prf=inf must be finite"),
+    "prf_zero": ("", ("radar.prf=0",), r"radar\.prf=0\.0 must be > 0"),
+    "speed_negative": ("", ("radar.velocity=-100",), r"radar\.velocity=-100\.0 must be > 0"),
+    "duration_zero": ("", ("radar.chirp_duration=0",), r"radar\.chirp_duration=0\.0 must be > 0"),
+    "bandwidth_negative": ("", ("radar.bandwidth=-1e6",), r"radar\.bandwidth=-1000000\.0"),
+    "fs_below_bandwidth": ("", ("radar.sampling_rate=40e6",),
+                           r"radar\.sampling_rate=4e\+07 Hz is below radar\.bandwidth"),
+    "scene_nan": ("", ("scene.range=[5140.0, nan]",),
+                  r"scene\.range has non-finite values \[nan\] at indices \[1\]"),
+    "scene_text": ("", ("scene.azimuth='here'",),
+                   r"scene\.azimuth='here' must be a number or a list of numbers"),
+    "scene_lengths": ("", ("scene.range=[5140.0, 5150.0, 5160.0]",),
+                      r"PointTargets\.range has shape \(3,\), azimuth has shape \(2,\)"),
+    "below_nadir": ("", ("scene.range=[3000.0, 5150.0]",),
+                    r"scene\.range=\[3000\.\] m is not beyond the platform height"),
+    "pulses_fraction": ("", ("simulate.num_pulses=2.5",),
+                        r"simulate\.num_pulses=2\.5 must be an integer"),
+    "dtype_real": ("", ("simulate.dtype='float32'",), r"dtype=float32 must be complex64"),
+    "dtype_unknown": ("", ("simulate.dtype='bogus'",), r"simulate\.dtype='bogus'"),
+    "method_unknown": ("", ("simulate.method='magic'",), r"unknown method='magic'"),
+    "deviation_negative": ("", ("motion.deviation_rms=-0.1",),
+                           r"motion\.deviation_rms=-0\.1 must be ≥ 0"),
+    "deviation_nan": ("", ("motion.deviation_rms=nan",), r"motion\.deviation_rms=nan must be "
+                                                          r"finite"),
+    "jitter_period_zero": ("", ("motion.jitter=0.05", "motion.jitter_period=0"),
+                           r"motion\.jitter_period=0 must be > 0"),
+    "seed_negative": ("", ("motion.deviation_rms=0.01", "motion.seed=-1"),
+                      r"motion\.seed=-1 must be ≥ 0"),
+    "preset_unknown": ("", ("preset='moon'",), r"preset='moon'; choose one of"),
+    "strict_outside_validity": ("", ("simulate.method='fourier_2d'", "simulate.strict=true",
+                                     "motion.deviation_rms=0.05"),
+                                r"strict=True: method='fourier_2d' is outside its validity: "
+                                r"epsilon_motion="),
+    "strict_outside_swath": ("", ("simulate.strict=true", "scene.range=[5140.0, 9000.0]"),
+                             r"strict=True: 1 of 2 scatterers' echoes miss the range window"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CLI_CONFIG_CASES))
+def test_cli_bad_configuration(case, tmp_path, capsys):
+    extra, overrides, expected = CLI_CONFIG_CASES[case]
+    (tmp_path / "run.toml").write_text(CONFIG + extra)
+    args = ["simulate", tmp_path / "run.toml", "-o", tmp_path / "raw.nc"]
+    for item in overrides:
+        args += ["--set", item]
+    err = _one_line_error(capsys, _cli(*args))
+    assert re.search(expected, err), (expected, err)
+    assert not (tmp_path / "raw.nc").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.toml"]  # no debris
+
+
+@pytest.mark.parametrize("case", ["missing", "folder", "binary"])
+def test_cli_configuration_file_unreadable(case, tmp_path, capsys):
+    path = {"missing": tmp_path / "none.toml", "folder": tmp_path,
+            "binary": tmp_path / "run.toml"}[case]
+    if case == "binary":
+        path.write_bytes(b"\x89HDF\r\n\x1a\n\xff\xfe")
+    err = _one_line_error(capsys, _cli("simulate", path, "-o", tmp_path / "raw.nc"))
+    assert {"missing": "does not exist", "folder": "is a directory",
+            "binary": "is not a text (TOML) file"}[case] in err
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+@pytest.mark.parametrize("command", ["focus", "plot", "export"])
+def test_cli_bad_input_file(bad_files, name, command, tmp_path, capsys):
+    extra = ["--format", "cphd"] if command == "export" else []
+    out = tmp_path / "out"
+    err = _one_line_error(capsys, _cli(command, bad_files[name], "-o", out, *extra))
+    assert re.search(BAD_FILES[name][1], err), err
+    assert not out.exists()
+
+
+def test_cli_focus_refuses_non_finite_samples(raw, tmp_path, capsys):
+    from sarjax import io
+
+    data = np.array(raw.data)
+    data[0, 0] = np.nan
+    io.save(tmp_path / "nan.nc", _with_data(raw, data), radar=_radar())
+    err = _one_line_error(capsys, _cli("focus", tmp_path / "nan.nc", "-o", tmp_path / "i.nc"))
+    assert "raw.data has non-finite samples at (pulse, sample) [(0, 0)]" in err
+    assert not (tmp_path / "i.nc").exists()
+
+
+def test_cli_wrong_kind_of_file(raw_file, tmp_path, capsys):
+    err = _one_line_error(capsys, _cli("metrics", raw_file))
+    assert re.search(r"raw\.nc holds RawData, expected Image", err)
+
+
+@pytest.mark.parametrize("command", ["simulate", "focus", "plot", "export"])
+def test_cli_output_paths(command, raw_file, tmp_path, capsys):
+    """An existing output is kept (and nothing is computed) without --force; a folder or a
+    missing parent folder is refused before any work."""
+    (tmp_path / "run.toml").write_text(CONFIG)
+    source = tmp_path / "run.toml" if command == "simulate" else raw_file
+    extra = ["--format", "cphd"] if command == "export" else []
+    existing = tmp_path / "existing.out"
+    existing.write_bytes(b"keep me")
+    for out, expected in ((existing, r"existing\.out exists \(pass --force to replace it\)"),
+                          (tmp_path, r"'--out': File .* is a directory"),
+                          (tmp_path / "no" / "x.out", r"folder .*no of the output does not "
+                                                      r"exist")):
+        err = _one_line_error(capsys, _cli(command, source, "-o", out, *extra))
+        assert re.search(expected, err), err
+    assert existing.read_bytes() == b"keep me"
+
+
+@pytest.mark.filterwarnings("default::sarjax.SwathWarning")
+def test_cli_warning_is_one_line(tmp_path, capsys):
+    """A scene entirely outside the range window: written (zeros), with one warning line."""
+    (tmp_path / "run.toml").write_text(CONFIG)
+    status = _cli("simulate", tmp_path / "run.toml", "-o", tmp_path / "raw.nc",
+                  "--set", "scene.range=[9000.0, 9100.0]")
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    assert re.fullmatch(r"sarjax: warning: no scatterer's echo reaches the range window "
+                        r"r' = 5130 … 5318\.87 m \(scene\.range = \[9000\. 9100\.\] m …\): "
+                        r"the raw data is identically zero \(SwathWarning\)\n", captured.err)
+    from sarjax import io
+
+    assert np.all(np.asarray(io.load(tmp_path / "raw.nc").product.data) == 0)
+
+
+def test_cli_warning_as_error_and_internal_error(tmp_path, capsys, monkeypatch):
+    import sarjax.cli
+
+    (tmp_path / "run.toml").write_text(CONFIG)
+    args = ["simulate", tmp_path / "run.toml", "-o", tmp_path / "raw.nc"]
+    # warnings as errors (pytest's filterwarnings = error, as ``python -W error``): status 2
+    err = _one_line_error(capsys, _cli(*args, "--set", "scene.range=[9000.0, 9100.0]"))
+    assert "no scatterer's echo reaches the range window" in err
+
+    def broken(config):
+        raise RuntimeError("a bug\nover two lines")
+
+    monkeypatch.setattr(sarjax.cli, "simulate_config", broken)
+    err = _one_line_error(capsys, _cli(*args), code=1)
+    assert "internal error (RuntimeError: a bug over two lines)" in err
+    monkeypatch.setenv("SARJAX_TRACEBACK", "1")
+    with pytest.raises(RuntimeError, match="a bug"):
+        _cli(*args)
+
+
+def test_cli_shell_bad_input_has_no_traceback(tmp_path):
+    """From a shell: one line on stderr, status 2, nothing written."""
+    import subprocess
+    import sys
+
+    (tmp_path / "run.toml").write_text(CONFIG + "[wobble]\n")
+    done = subprocess.run([sys.executable, "-m", "sarjax.cli", "simulate", "run.toml", "-o",
+                           "raw.nc", "--set", "radar.prf=nan"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.startswith("sarjax: error: ")
+    assert not (tmp_path / "raw.nc").exists()

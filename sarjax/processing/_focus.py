@@ -6,6 +6,7 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .. import _memory
+from .. import _validate
 from .._data import Image, RawData
 from ..motion import Motion
 from . import _motion_compensation as moco
@@ -114,6 +115,7 @@ def focus(
         ``exp(−j4πr/λ)``.
     """
     motion = Motion() if motion is None else motion
+    _validate.check_focus(radar, raw, motion)
     if motion_compensation not in _COMPENSATION:
         raise ValueError(
             f"motion_compensation={motion_compensation!r}; choose one of {_COMPENSATION}"

@@ -55,6 +55,7 @@ import math
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -83,10 +84,9 @@ _TWO_PI = 2 * jnp.pi
 
 
 def _concrete(value):
-    try:
-        return float(np.asarray(value))
-    except Exception:  # a tracer: not known eagerly
+    if isinstance(value, jax.core.Tracer):  # not known eagerly
         return None
+    return float(np.asarray(value))
 
 
 def squinted_wavenumbers(radar, n_x):
