@@ -368,7 +368,7 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
             azimuth_center=float(azimuth_center),
             pointing_order=options.get("pointing_order", 2),
         )
-    name = method if isinstance(method, str) else type(method).__name__
+    name = str(method) if isinstance(method, str) else type(method).__name__
     simulator = _resolve_method(method, options)
     _validate.check_supported(simulator, radar, scene)
     simulator = simulator.prepare(radar, scene, acquisition)
