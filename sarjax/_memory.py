@@ -98,16 +98,27 @@ def parse_bytes(value, name="memory_limit") -> int:
     return int(number)
 
 
+def _meminfo_available() -> int | None:
+    """``MemAvailable`` [bytes] from ``/proc/meminfo``; None when it cannot be read (not
+    Linux, or an unexpected format: the caller falls back to ``os.sysconf``)."""
+    try:
+        with open("/proc/meminfo") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        fields = line.split()
+        if fields[:1] == ["MemAvailable:"] and len(fields) > 1 and fields[1].isdigit():
+            return int(fields[1]) * 1024
+    return None
+
+
 def available_memory() -> int | None:
     """Host memory available now [bytes]: ``MemAvailable`` from ``/proc/meminfo``, else
     ``os.sysconf`` available pages; None when neither can be read."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
+    meminfo = _meminfo_available()
+    if meminfo is not None:
+        return meminfo
     try:
         return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
     except (OSError, ValueError, AttributeError):

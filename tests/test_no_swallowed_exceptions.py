@@ -16,10 +16,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent / "sarjax"
 BROAD = {"Exception", "BaseException"}
 # (file, function): a handler that does nothing but is a documented fallback
-KNOWN = {
-    # /proc/meminfo unreadable: falls through to os.sysconf (documented in its docstring)
-    ("_memory.py", "available_memory"),
-}
+KNOWN: set = set()
 
 
 def _names(node):
