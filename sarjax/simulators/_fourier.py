@@ -191,6 +191,30 @@ def grid_dtft(lines):
     return jnp.fft.fft(padded.T, axis=1)
 
 
+def grid_spectrum_dtft(values, n_x):
+    """(n_x, p) azimuth DFT and range-line DTFT of a grid in one 2-D FFT.
+
+    ``D(ξ, ω_k) = Σ_j Σ_i v[i, j] e^{−jξ iΔx} e^{−jω_k (j − j_c)}``: :func:`grid_dtft` of
+    the rows of :func:`_grid_azimuth_fft`, made without the (n_lines, n_x) intermediate
+    and its transpose.
+
+    Args:
+        values: (n_az, n_lines) reflectivity on the grid (cell i at offset i from the
+            grid's first row; see :func:`_grid_azimuth_ramp`).
+        n_x: azimuth DFT length (≥ n_az).
+    """
+    n_az, n_lines = values.shape
+    p = next_fast_len(2 * n_lines)
+    centre = n_lines // 2
+    # line j_c at index 0, the lines before it at the end of the period
+    rolled = jnp.concatenate([values[:, centre:], values[:, :centre]], axis=1)
+    padded = jnp.zeros((n_x, p), values.dtype)
+    padded = jax.lax.dynamic_update_slice(padded, rolled[:, :n_lines - centre], (0, 0))
+    padded = jax.lax.dynamic_update_slice(padded, rolled[:, n_lines - centre:],
+                                          (0, p - centre))
+    return jnp.fft.fft2(padded)
+
+
 def synthesize_grid(dtft, line_ranges, kappa, taps=8):
     """Inverse Stolt mapping over a uniform range grid ``r_j = r_0 + j Δr``:
     ``Σ_j F_j e^{−jκ r_j} = e^{−jκ r_c} D(κ Δr)``, D from :func:`grid_dtft` interpolated
@@ -237,15 +261,39 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
     """
     n_c = eta.shape[0]
 
+    # terms that weight the same spectrum run in a scan over (weight, s(x')ⁿ): the
+    # spectrum is then a loop operand, made once per block (fused into each term's
+    # weighting, XLA would redo its synthesis per term)
+    groups = {}
+    for index, weight, power in terms:
+        groups.setdefault(index, []).append((weight, power))
+
+    def along_track(values, weight, power):
+        if weight is not None:
+            values = values * weight[None, :]
+        along = jnp.fft.ifft(values, axis=1)[:, pad:pad + num_pulses]
+        return along if power == 0 else along * scale_powers[power][None, :]
+
     def run(eta_block):
         block_arrays = produce(eta_block)
         acc = 0.0
-        for index, weight, power in terms:
+        for index, group in groups.items():
             values = block_arrays[index]
-            if weight is not None:
-                values = values * weight[None, :]
-            along = jnp.fft.ifft(values, axis=1)[:, pad:pad + num_pulses]
-            acc = acc + (along if power == 0 else along * scale_powers[power][None, :])
+            if len(group) == 1:
+                acc = acc + along_track(values, *group[0])
+                continue
+            n_x = values.shape[1]
+            weights = jnp.stack([jnp.ones(n_x) if w is None else w for w, _ in group])
+            powers = jnp.stack([jnp.ones(num_pulses) if n == 0 else scale_powers[n]
+                                for _, n in group])
+
+            def term(total, weight_power, values=values):
+                weight, power = weight_power
+                along = jnp.fft.ifft(values * weight[None, :], axis=1)
+                return total + along[:, pad:pad + num_pulses] * power[None, :], None
+
+            zero = jnp.zeros((values.shape[0], num_pulses), values.dtype)
+            acc = acc + jax.lax.scan(term, zero, (weights, powers))[0]
         if delta_r is not None:
             acc = acc * unit_phasor(-(eta_block[:, None] + wavenumber) * delta_r[None, :])
         return acc
@@ -489,15 +537,24 @@ class _FourierBase(AbstractSimulator):
             return scale * pattern_term(radar.pattern, order)(u_star)
 
         # ---- scene → range lines F_j(ξ), (n_lines, n_x) ----------------------------------
-        if prepared.gridded:
+        # a grid of the small deviation / ideal 2-D methods stays (n_az, n_lines): one 2-D
+        # FFT makes the azimuth DFT and the DTFT over its lines
+        grid_2d = prepared.gridded and ranges.shape[0] > 1 and mode != "moderate"
+        if grid_2d:
+            gamma = prepared.reflectivity  # (n_az, n_lines)
+            xs = prepared.azimuth[:, None]
+            hs = prepared.height
+            rs = ranges[None, :]
+        elif prepared.gridded:
             gamma = prepared.reflectivity.T  # (n_lines, n_az)
             xs = prepared.azimuth[None, :]
             hs = prepared.height.T
+            rs = ranges[:, None]
         else:
             gamma = prepared.reflectivity[:, None]
             xs = prepared.azimuth[:, None]
             hs = prepared.height[:, None]
-        rs = ranges[:, None]
+            rs = ranges[:, None]
         if mode == "small":
             # γ̃ = γ exp[−j k₀ ψ(x, r)]: ψ at the pulse above the scatterer
             dy_s = _interp_motion(horizontal, xs, x_pulses[0], dx)
@@ -506,12 +563,15 @@ class _FourierBase(AbstractSimulator):
             gamma = gamma * unit_phasor(-k0 * psi_s)
         # per-line factors: √r_j of the stationary amplitude and the carrier e^{−jk₀r_j}
         line_factor = jnp.sqrt(ranges) * unit_phasor(-jnp.mod(k0 * ranges, _TWO_PI))
-        gamma = gamma * line_factor[:, None]
+        gamma = gamma * (line_factor[None, :] if grid_2d else line_factor[:, None])
         # A(ξ, r) / √r = (1/Δx) √(2π k₀² / (k₀² − ξ²)^{3/2}) e^{−jπ/4}: a per-ξ factor,
         # applied with the grid's azimuth ramp as a weight of the columns (small
         # deviation, ideal 2-D) or of the lines (moderate deviation)
         column_weight = stationary_amplitude(radar, xi, 1.0)
-        if prepared.gridded:
+        if grid_2d:
+            spectrum = None
+            column_weight = column_weight * _grid_azimuth_ramp(prepared.azimuth, x0, dx, n_x)
+        elif prepared.gridded:
             spectrum = _grid_azimuth_fft(gamma, n_x)
             column_weight = column_weight * _grid_azimuth_ramp(prepared.azimuth, x0, dx, n_x)
         else:
@@ -564,7 +624,10 @@ class _FourierBase(AbstractSimulator):
             envelope_set = None
 
         gridded = prepared.gridded and ranges.shape[0] > 1
-        dtfts = [grid_dtft(lines) for lines in line_sets] if gridded else line_sets
+        if grid_2d:
+            dtfts = [grid_spectrum_dtft(gamma, n_x)]
+        else:
+            dtfts = [grid_dtft(lines) for lines in line_sets] if gridded else line_sets
         env_dtft = None
         if envelope_set is not None:
             env_dtft = grid_dtft(envelope_set) if gridded else envelope_set
