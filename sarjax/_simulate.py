@@ -20,20 +20,19 @@ from .validity import FASTEST_FIRST, choose_method
 from .simulators import (
     AbstractSimulator,
     ChirpScaling,
-    Fourier2D,
     HighSpeed,
     ModerateDeviation,
     SmallDeviation,
     TimeDomain,
     TimeDomainNUFFT,
 )
-from .simulators._squint import SquintModerateDeviation, SquintSmallDeviation
+from .simulators._squint import SquintFourier2D, SquintModerateDeviation, SquintSmallDeviation
 
 _METHODS = {
     "time_domain": TimeDomain,
     "time_domain_nufft": TimeDomainNUFFT,
-    "fourier_2d": Fourier2D,
     # at any squint (broadside: the broadside classes, unchanged)
+    "fourier_2d": SquintFourier2D,
     "small_deviation": SquintSmallDeviation,
     "algorithm_a": SquintSmallDeviation,
     "moderate_deviation": SquintModerateDeviation,

@@ -145,8 +145,8 @@ def check_supported(simulator, radar, scene):
     if squint is not None and squint != 0 and not getattr(simulator, "supports_squint", False):
         raise ValueError(
             f"radar.squint={float(squint):g} rad: squinted acquisition is not implemented by "
-            f"{name} (use method='time_domain', 'small_deviation', 'moderate_deviation', "
-            "'high_speed' or 'chirp_scaling')"
+            f"{name} (use method='time_domain', 'fourier_2d', 'small_deviation', "
+            "'moderate_deviation' or 'high_speed')"
         )
     if getattr(simulator, "supports_moving_targets", False):
         return

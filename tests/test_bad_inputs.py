@@ -360,9 +360,9 @@ def test_unknown_simulator_option():
 
 
 def test_unsupported_squint_and_moving_targets_are_refused():
-    # fourier_2d implements neither (time_domain implements both)
+    # chirp_scaling implements no squint, fourier_2d no moving targets (time_domain both)
     with pytest.raises(ValueError, match="squint"):
-        _simulate(_radar(squint=0.1), method="fourier_2d")
+        _simulate(_radar(squint=0.1), method="chirp_scaling")
     scene = sj.PointTargets(azimuth=[0.0], range=[5140.0], velocity_range=[1.0])
     with pytest.raises(ValueError, match="velocit"):
         _simulate(scene=scene, method="fourier_2d")
