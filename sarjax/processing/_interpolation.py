@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -54,26 +57,57 @@ def sinc_interpolate(values, positions, *, taps: int = 12, periodic: bool = Fals
     return jnp.sum(jnp.where(valid, weights, 0.0) * gathered, axis=-1)
 
 
+class PeriodicRows(NamedTuple):
+    """Rows holding one period each, followed by ``guard`` wrapped samples (the row's
+    first samples again), so that any window of ≤ ``guard`` taps is contiguous."""
+
+    values: jax.Array  # (n_rows, period + guard)
+    period: int
+
+
+def periodic_rows(table, guard: int = 16) -> PeriodicRows:
+    """:class:`PeriodicRows` of a (n_rows, p) table of one period per row."""
+    guard = min(guard, table.shape[1])
+    return PeriodicRows(jnp.concatenate([table, table[:, :guard]], axis=1), table.shape[1])
+
+
 def sinc_interpolate_rows(table, positions, *, taps: int = 8):
     """Periodic windowed-sinc interpolation of each row of ``table``, output transposed.
 
     ``out[c, i]`` interpolates row ``i`` of ``table`` (periodic) at ``positions[c, i]``;
     same kernel as :func:`sinc_interpolate`. Producing the (column, row) layout directly
     lets the consumer transform along the rows' axis without a transpose of a fused
-    interpolation (XLA would recompute it per consumer, with strided reads).
+    interpolation (XLA would recompute it per consumer, with strided reads). Each output
+    reads one contiguous window of ``taps`` samples (one gather of a slice, not one per
+    tap): made a :class:`PeriodicRows` once (:func:`periodic_rows`), a table serves any
+    number of calls without copying.
 
     Args:
-        table: (n_rows, p) one period per row.
+        table: (n_rows, p) one period per row, or :class:`PeriodicRows` with a guard
+            ≥ ``taps``.
         positions: (m, n_rows) fractional positions along the rows.
 
     Returns:
         (m, n_rows).
     """
-    n_rows, p = table.shape
-    base, weights, offsets = _sinc_weights(positions, taps)
-    index = jnp.mod(base.astype(jnp.int32)[..., None] + offsets, p)  # (m, n_rows, taps)
-    flat = index + (jnp.arange(n_rows, dtype=jnp.int32) * p)[None, :, None]
-    return jnp.sum(weights * table.reshape(-1)[flat], axis=-1)
+    if not isinstance(table, PeriodicRows):
+        table = periodic_rows(table, taps)
+    values, period = table
+    n_rows, width = values.shape
+    if width - period < taps or taps > period:
+        raise ValueError(f"taps={taps} exceeds the table's guard ({width - period}) or "
+                         f"period ({period})")
+    base, weights, _ = _sinc_weights(positions, taps)
+    # first tap of the window, in [0, period): the window then lies inside the row
+    start = jnp.mod(base.astype(jnp.int32) - (taps // 2 - 1), period)
+    rows = jnp.broadcast_to(jnp.arange(n_rows, dtype=jnp.int32), start.shape)
+    window = jax.lax.gather(
+        values, jnp.stack([rows, start], axis=-1),
+        jax.lax.GatherDimensionNumbers(offset_dims=(positions.ndim,),
+                                       collapsed_slice_dims=(0,), start_index_map=(0, 1)),
+        slice_sizes=(1, taps), mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS,
+    )  # (m, n_rows, taps); start ∈ [0, period) and the guard keep it in bounds
+    return jnp.sum(weights * window, axis=-1)
 
 
 def _sinc_weights(positions, taps):

@@ -46,7 +46,11 @@ import numpy as np
 
 from .. import geometry
 from .._phasor import unit_phasor
-from ..processing._interpolation import next_fast_len, sinc_interpolate_rows
+from ..processing._interpolation import (
+    next_fast_len,
+    periodic_rows,
+    sinc_interpolate_rows,
+)
 from ..scene import PointTargets, ReflectivityGrid
 from ._base import AbstractSimulator
 
@@ -179,20 +183,32 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
 def grid_dtft(lines):
     """(n_x, p) DTFT over a uniform grid of range lines, about the middle line.
 
-    ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``, ``p ≥ 2 n_lines`` (2×
-    oversampled, so that a short windowed sinc interpolates it; its harmonics span ±n/2).
+    ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``, ``p ≥ 1.8 n_lines``
+    (oversampled, so that a short windowed sinc interpolates it; its harmonics span
+    ±n/2).
 
     Args:
         lines: (n_lines, n_x) F_j(ξ).
+
+    Returns:
+        :class:`PeriodicRows` of the (n_x, p) table.
     """
     n_lines = lines.shape[0]
-    p = next_fast_len(2 * n_lines)
+    p = dtft_length(n_lines)
     padded = jnp.roll(jnp.pad(lines, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
-    return jnp.fft.fft(padded.T, axis=1)
+    return periodic_rows(jnp.fft.fft(padded.T, axis=1))
+
+
+def dtft_length(n_lines):
+    """DTFT length p of :func:`grid_dtft`: ≥ 1.8 n_lines. The 8-tap windowed sinc
+    interpolates 1.8× oversampled rows as well as 2× ones (−49 dB); the smaller table
+    stays below the size where the allocator hands out fresh pages on every call."""
+    return next_fast_len(max(-(-9 * n_lines // 5), 2))
 
 
 def grid_spectrum_dtft(values, n_x):
-    """(n_x, p) azimuth DFT and range-line DTFT of a grid in one 2-D FFT.
+    """Azimuth DFT and range-line DTFT of a grid in one 2-D FFT (:class:`PeriodicRows`
+    of the (n_x, p) table).
 
     ``D(ξ, ω_k) = Σ_j Σ_i v[i, j] e^{−jξ iΔx} e^{−jω_k (j − j_c)}``: :func:`grid_dtft` of
     the rows of :func:`_grid_azimuth_fft`, made without the (n_lines, n_x) intermediate
@@ -204,7 +220,7 @@ def grid_spectrum_dtft(values, n_x):
         n_x: azimuth DFT length (≥ n_az).
     """
     n_az, n_lines = values.shape
-    p = next_fast_len(2 * n_lines)
+    p = dtft_length(n_lines)
     centre = n_lines // 2
     # line j_c at index 0, the lines before it at the end of the period
     rolled = jnp.concatenate([values[:, centre:], values[:, :centre]], axis=1)
@@ -212,7 +228,7 @@ def grid_spectrum_dtft(values, n_x):
     padded = jax.lax.dynamic_update_slice(padded, rolled[:, :n_lines - centre], (0, 0))
     padded = jax.lax.dynamic_update_slice(padded, rolled[:, n_lines - centre:],
                                           (0, p - centre))
-    return jnp.fft.fft2(padded)
+    return periodic_rows(jnp.fft.fft2(padded))
 
 
 def synthesize_grid(dtft, line_ranges, kappa, taps=8):
@@ -221,7 +237,7 @@ def synthesize_grid(dtft, line_ranges, kappa, taps=8):
     with a windowed sinc at the non-uniform ``κ Δr``.
 
     Args:
-        dtft: (n_x, p) from :func:`grid_dtft`.
+        dtft: :class:`PeriodicRows` of the (n_x, p) table from :func:`grid_dtft`.
         line_ranges: (n_lines,) r_j [m].
         kappa: (n_c, n_x) κ(ξ, η) [rad/m].
 
@@ -229,7 +245,7 @@ def synthesize_grid(dtft, line_ranges, kappa, taps=8):
         ((n_c, n_x) D(ξ, κ Δr), r_c = range of the middle line [m]); the caller applies
         ``e^{−jκ r_c}``.
     """
-    p = dtft.shape[1]
+    p = dtft.period
     centre = line_ranges.shape[0] // 2
     step = line_ranges[1] - line_ranges[0]
     position = kappa * step * (p / (2 * jnp.pi))
@@ -638,8 +654,9 @@ class _FourierBase(AbstractSimulator):
         scale_powers = {n: pointing_scale**n for n in orders if n}
         total = jnp.zeros((n_r, n_pulses), jnp.complex128)  # (η, x')
         for m, cols, eta_m in alias_sets:
-            # the aliases carry ≲ −20 dB of the echo: 4 taps (≈ −30 dB) suffice there
-            taps = self.taps if m == 0 else min(self.taps, 4)
+            # the aliases carry ≲ −20 dB of the echo: 6 taps (−34 dB on 1.8× oversampled
+            # rows; 4 taps: −21 dB) suffice there, and cost about what 8 do
+            taps = self.taps if m == 0 else min(self.taps, 6)
             # pointing terms are ≲ 5 % of the echo: their range aliases (≲ −25 dB of them)
             # are negligible, so (moderate deviation) they are synthesised for m = 0 only
             n_sets = len(line_sets) if m == 0 else 1
@@ -664,7 +681,7 @@ class _FourierBase(AbstractSimulator):
                 return [rel * phase for rel in out]
 
             if mode == "moderate":
-                terms = [(q, None, order) for q, order in zip(range(n_sets), orders)]
+                terms = [(q, None, order) for q, order in zip(range(n_sets), orders, strict=False)]
             elif m == 0:
                 terms = [(0, column_weight * row_weight(order), order) for order in orders]
             else:

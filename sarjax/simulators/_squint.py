@@ -264,7 +264,7 @@ def run_squinted(sim, radar, scene, motion, acquisition, dtype, mode):
     per_pulse = None if mode == "ideal" else delta_kept / cos_d
     total = jnp.zeros((n_r, n_pulses), jnp.complex128)
     for m, cols, eta_m in alias_sets:
-        taps = sim.taps if m == 0 else min(sim.taps, 4)
+        taps = sim.taps if m == 0 else min(sim.taps, 6)
         n_terms = len(weights) if m == 0 else 1
 
         def produce(eta_block, taps=taps, n_terms=n_terms):
