@@ -256,7 +256,8 @@ def _squinted_validity(radar, scene, motion, method, n, azimuth_center, pointing
       envelope terms over 2 (``|ψ|/c`` and the migration ``c_d |a| |∂ψ/∂x'| / c²``, both
       corrected) plus the uncorrected ones: ``|δr||1/c − 1/c_d|`` and the migration of the
       coupling's Doppler shift, ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``.
-    * fourier_2d: broadside only (``epsilon_squint``, never within budget).
+    * fourier_2d: the squinted straight track (seed 002 eq. 49 without motion):
+      ``epsilon_motion = (4π/λ) max|δr_xr|`` over the squinted lobe, as at broadside.
     """
     dx = float(radar.azimuth_spacing)
     x_p = azimuth_center + (np.arange(n) - (n - 1) / 2) * dx
@@ -286,8 +287,8 @@ def _squinted_validity(radar, scene, motion, method, n, azimuth_center, pointing
     budgets = []
     slope_mismatch = np.abs(delta_r) * np.abs(1 / cos_look - 1 / c_d)
     if method == "fourier_2d":
-        budgets.append(Budget("epsilon_squint", abs(squint), 0.0,
-                              "|φ_d|: method='fourier_2d' simulates a broadside beam"))
+        budgets.append(Budget("epsilon_motion", k0 * lobe_max(los), PHASE_THRESHOLD,
+                              "(4π/λ) max|δr_xr|: the deviation is not modelled"))
     elif method == "small_deviation":
         budgets.append(Budget("epsilon_11", k0 * lobe_max(exact - nominal - c_d * los),
                               PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr|"))

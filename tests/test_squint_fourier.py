@@ -80,18 +80,23 @@ def test_broadside_runs_the_broadside_program(method, broadside):
     assert programs[0] == programs[1]
 
 
-def test_squint_is_accepted_and_auto_keeps_to_the_deviation_methods():
+def test_squint_is_accepted_and_auto_picks_fourier_2d_on_a_straight_track():
     """``check_supported`` accepts squint for every registered Fourier method, the ideal
-    ``fourier_2d`` included (its accuracy: below). ``sj.validity`` has no squinted
-    ideal-track budget for ``fourier_2d`` (it reports ``epsilon_squint``), so
-    ``method="auto"`` at squint still chooses the fastest deviation method."""
+    ``fourier_2d`` included (its accuracy: below). Its squinted budget is the unmodelled
+    deviation, as at broadside: ``method="auto"`` picks it on a straight track and a
+    deviation method once the track deviates by more than the budget allows."""
     radar = sa.radar_of(4.0, num_pulses=64, num_range=32)
     scene = sa.target(radar, 5140.0)
     for method in METHODS + ("fourier_2d",):
         # a squinted acquisition is accepted (the tests below simulate it)
         check_supported(_METHODS[method](), radar, scene)
-    # straight track at 4°: the fastest squint-capable method is small deviation
-    assert choose_method(radar, scene, None, num_pulses=64)[0] == "small_deviation"
+    assert choose_method(radar, scene, None, num_pulses=64)[0] == "fourier_2d"
+    verdict = sj.validity(radar, scene, None, method="fourier_2d", num_pulses=64)
+    assert verdict.valid and [b.name for b in verdict.budgets][0] == "epsilon_motion"
+    # 1 mm is 0.4 rad at X-band: over the π/20-scale motion budget of fourier_2d
+    deviated = sj.Motion(vertical=np.full(64, 1e-3))
+    assert not sj.validity(radar, scene, deviated, method="fourier_2d", num_pulses=64).valid
+    assert choose_method(radar, scene, deviated, num_pulses=64)[0] == "small_deviation"
 
 
 # --------------------------------------------------------------------------------------
