@@ -177,12 +177,12 @@ def test_high_speed_grid_scene():
     assert sj.metrics.nmse_db(fast, exact) <= -27.0
 
 
-def _peak(radar, raw, x, r, *, stop_and_go=False):
+def _peak(radar, raw, x, r, *, stop_and_go=False, weighting="uniform"):
     """Refined peak (x, r) of the exact back-projection of raw data near (x, r)."""
     ax = x + (np.arange(128) - 64) * 1.0
     rg = r + (np.arange(128) - 64) * 0.5
     image = sj.focus(radar, raw, method="exact_backprojection", azimuth=ax, range=rg,
-                     stop_and_go=stop_and_go)
+                     stop_and_go=stop_and_go, azimuth_weighting=weighting)
     m = sj.point_target_metrics(image, azimuth=x, range=r, half_window=56)
     return m.peak_azimuth, m.peak_range
 
@@ -205,21 +205,49 @@ def test_stop_and_go_azimuth_displacement():
 # seed 004 Table 3: (v_r, v_a) of the broadside cases, and two at 30° squint
 TABLE3 = [(0.0, (0.0, 0.5)), (0.0, (0.0, 1.0)), (0.0, (0.5, 0.0)), (0.0, (1.0, 0.0)),
           (0.0, (0.5, 1.0)), (0.0, (1.0, 1.0)), (30.0, (0.5, 0.0)), (30.0, (1.0, 0.0))]
-CI_CASES = [(0.0, (1.0, 0.0)), (0.0, (0.5, 1.0))]
+# CI: reduced sizes; the 30° case on 768 pulses (aperture |u| ≤ 0.58, range walk ±0.58 km)
+# with the exact model only (4 s; high_speed needs 25 s there, it runs in the slow test)
+CI_CASES = [(0.0, (1.0, 0.0), 1536, "high_speed"), (0.0, (1.0, 0.0), 1536, "time_domain"),
+            (0.0, (0.5, 1.0), 1536, "high_speed"), (0.0, (0.5, 1.0), 1536, "time_domain"),
+            (30.0, (1.0, 0.0), 768, "time_domain")]
 
 
-def _shift_case(degrees, velocities, method):
+def _shift_case(degrees, velocities, method, num_pulses=1536):
+    """Measured and theoretical (Δx, Δr) of one Table 3 case.
+
+    Two conditions make the measurement the theory's (each measured at 30°, v_r = 1 m/s,
+    exact model, with a 2-D quadratic fit on back-projected 9 × 9 patches iterated onto the
+    peak as an independent check of the peak finder):
+
+    * the range window holds every echo whole: at 30° the echo walks by x' sin φ_d
+      (±1.15 km over 1536 pulses) past the 5 µs chirp's 750 m; with the broadside window
+      (1024 samples, 1.28 km) most echoes are cut and the moving target lands 2.4 mm
+      (exact) / 2.9 mm (high_speed) off the theory, a static target at the theoretical
+      position 1.3 mm off its own position. 3072 samples (3.84 km; 2048 on 768 pulses).
+    * the azimuth weighting does not depend on the pixel: ``"uniform"`` divides each pulse
+      by ``W²`` of the pixel's own geometry, a gain that changes linearly with the pixel
+      position. A moving target is lit like a static target 144 m away from where it
+      focuses (its pattern is that of its true position), so the gain's slope no longer
+      cancels across the aperture and tilts the peak by (−1.8 mm, +1.03 mm), although its
+      echo ranges equal those of a static target at the theoretical position to 4·10⁻⁸ m
+      over the whole aperture (and its range-compressed phase there is flat to 3·10⁻⁴ rad).
+      With ``"antenna"`` (w = 1) every pulse adds in phase exactly at that position, which is
+      then the maximum: measured 0.02 mm range, < 0.1 mm azimuth from the theory.
+
+    Broadside neither matters (range walk ≈ 0; the weighting's slope cancels by symmetry).
+    """
     squint = np.deg2rad(degrees)
-    radar = _reduced(squint, num_pulses=1536, chirp=5e-6, num_range=1024)
+    num_range = 1024 if not degrees else (3072 if num_pulses > 1024 else 2048)
+    radar = _reduced(squint, num_pulses=num_pulses, chirp=5e-6, num_range=num_range)
     x = R0 * np.tan(squint)
     opts = {"stop_and_go": False} if method == "time_domain" else {}
     static = sj.simulate(radar, sj.PointTargets(azimuth=[x], range=[R0]), method=method, **opts)
-    x0, r0 = _peak(radar, static, x, R0)
+    x0, r0 = _peak(radar, static, x, R0, weighting="antenna")
     v_r, v_a = velocities
     dx, dr = sj.processing.moving_target_shift(radar, R0, v_r, v_a)
     moving = sj.simulate(radar, sj.PointTargets(azimuth=[x], range=[R0], velocity_range=[v_r],
                                                 velocity_azimuth=[v_a]), method=method, **opts)
-    px, pr = _peak(radar, moving, x + dx, R0 + dr)
+    px, pr = _peak(radar, moving, x + dx, R0 + dr, weighting="antenna")
     return (px - x0, pr - r0), (dx, dr)
 
 
@@ -229,13 +257,12 @@ def _check_shift(measured, theory):
     assert abs(measured[1] - theory[1]) <= max(0.01 * abs(theory[1]), 5e-4)
 
 
-@pytest.mark.parametrize("method", ["high_speed", "time_domain"])
-@pytest.mark.parametrize("degrees, velocities", CI_CASES)
-def test_moving_target_shift(degrees, velocities, method):
+@pytest.mark.parametrize("degrees, velocities, num_pulses, method", CI_CASES)
+def test_moving_target_shift(degrees, velocities, num_pulses, method):
     """Shifts of a moving target in the focused image, against the theory of
     :func:`sarjax.processing.moving_target_shift` (seed 004 eq. 23; range: the
-    stationary-phase position, e.g. −7.11 mm at v_r = 1 m/s)."""
-    measured, theory = _shift_case(degrees, velocities, method)
+    stationary-phase position, e.g. −7.11 mm at v_r = 1 m/s, −9.48 mm at 30°)."""
+    measured, theory = _shift_case(degrees, velocities, method, num_pulses)
     _check_shift(measured, theory)
 
 
@@ -243,12 +270,7 @@ def test_moving_target_shift(degrees, velocities, method):
 @pytest.mark.parametrize("method", ["high_speed", "time_domain"])
 @pytest.mark.parametrize("degrees, velocities", TABLE3)
 def test_moving_target_shift_table3(degrees, velocities, method):
+    """All eight cases of seed 004 Table 3 within the full tolerance (see
+    :func:`_shift_case` for what the 30° measurement needs)."""
     measured, theory = _shift_case(degrees, velocities, method)
-    if degrees:
-        # 30° squint: the azimuth shift holds; the range position measured on the
-        # back-projected image is 0.7–1.8 mm nearer than the theory, for both simulators
-        # alike (the phase histories of the moving target and of the static target at the
-        # theoretical position agree to < 1 µm: a bias of the measurement)
-        assert abs(measured[0] - theory[0]) <= max(0.01 * abs(theory[0]), 0.05)
-        return
     _check_shift(measured, theory)
