@@ -399,6 +399,41 @@ def _interp_motion(values, x_query, x0, dx):
     return values[i0] * (1 - t) + values[i0 + 1] * t
 
 
+def range_alias_sets(eta, range_spacing, range_aliases, alias_columns):
+    """The range aliases to synthesise: a list of (m, column indices or None for all,
+    (count,) wavenumbers η + 2πm/Δr of those columns).
+
+    Alias m ≠ 0 only matters for the columns whose η + 2πm/Δr lies near the band edge: a
+    static count per alias (``alias_columns``, from :func:`alias_column_count`; None:
+    every column), counted from the Nyquist column.
+
+    Args:
+        eta: (n_r,) range wavenumbers of the DFT columns [rad/m].
+        range_spacing: Δr [m].
+        range_aliases: aliases ±1 … ±range_aliases are synthesised.
+        alias_columns: columns per alias, or None.
+    """
+    n_r = eta.shape[0]
+    step = _TWO_PI / range_spacing
+    half = n_r // 2
+    sets = []
+    for m in range(-range_aliases, range_aliases + 1):
+        if m == 0:
+            sets.append((0, None, eta + 0.0))
+            continue
+        count = n_r if alias_columns is None else min(alias_columns, n_r)
+        if count == 0:
+            continue
+        if count >= n_r:
+            sets.append((m, None, eta + m * step))
+            continue
+        # m > 0 reaches the upper band edge from the most negative η (columns half…)
+        cols = np.mod((half + np.arange(count)) if m > 0 else (half - 1 - np.arange(count)),
+                      n_r)
+        sets.append((m, cols, eta[cols] + m * step))
+    return sets
+
+
 def alias_column_count(radar, n_r, tolerance):
     """Columns per range alias (m = ±1) so that the alias energy left out is at most
     ``tolerance`` of the main band's energy (eager, on concrete values).
@@ -527,25 +562,8 @@ class _FourierBase(AbstractSimulator):
             orders = range(1)
 
         kappa_fn = _kappa_b if mode == "moderate" else _kappa_full
-        alias_step = 2 * jnp.pi / radar.range_spacing
-        # alias m only matters for the columns whose η + 2πm/Δr lies near the band edge:
-        # a static count per alias (prepare()), taken next to the Nyquist column
-        half = n_r // 2
-        alias_sets = []  # (m, column indices or None for all, wavenumbers)
-        for m in range(-self.range_aliases, self.range_aliases + 1):
-            if m == 0:
-                alias_sets.append((0, None, eta + 0.0))
-                continue
-            count = n_r if self.alias_columns is None else min(self.alias_columns, n_r)
-            if count == 0:
-                continue
-            if count >= n_r:
-                alias_sets.append((m, None, eta + m * alias_step))
-                continue
-            # m > 0 reaches the upper band edge from the most negative η (columns half…)
-            cols = (half + np.arange(count)) if m > 0 else (half - 1 - np.arange(count))
-            cols = np.mod(cols, n_r)
-            alias_sets.append((m, cols, eta[cols] + m * alias_step))
+        alias_sets = range_alias_sets(eta, radar.range_spacing, self.range_aliases,
+                                      self.alias_columns)
 
         def row_weight(order):
             """(n_x,) the n-th pattern term at the stationary point, (−L/λ)ⁿ W²⁽ⁿ⁾(u*)/n!."""

@@ -74,6 +74,7 @@ from ._fourier import (
     grid_dtft,
     pattern_term,
     prepare_scene,
+    range_alias_sets,
     range_wavenumbers,
     stationary_amplitude,
     synthesize_direct,
@@ -168,22 +169,8 @@ def run_squinted(sim, radar, scene, motion, acquisition, dtype, mode):
     weights = [pattern_weights(radar, xi, n) for n in orders]
 
     kappa_fn = _kappa_b if mode == "moderate" else _kappa_full
-    alias_step = _TWO_PI / radar.range_spacing
-    half = n_r // 2
-    alias_sets = []  # (m, column indices or None for all, wavenumbers), as at broadside
-    for m in range(-sim.range_aliases, sim.range_aliases + 1):
-        if m == 0:
-            alias_sets.append((0, None, eta + 0.0))
-            continue
-        count = n_r if sim.alias_columns is None else min(sim.alias_columns, n_r)
-        if count == 0:
-            continue
-        if count >= n_r:
-            alias_sets.append((m, None, eta + m * alias_step))
-            continue
-        cols = (half + np.arange(count)) if m > 0 else (half - 1 - np.arange(count))
-        cols = np.mod(cols, n_r)
-        alias_sets.append((m, cols, eta[cols] + m * alias_step))
+    alias_sets = range_alias_sets(eta, radar.range_spacing, sim.range_aliases,
+                                  sim.alias_columns)  # as at broadside
 
     # ---- scene → range lines F_j(ξ) ----------------------------------------------------
     if prepared.gridded:
