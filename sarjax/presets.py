@@ -6,6 +6,9 @@ Each preset takes keyword overrides of any :class:`~sarjax.Radar` field, e.g.
 
 from __future__ import annotations
 
+import jax
+import numpy as np
+
 from .constants import SPEED_OF_LIGHT
 from .radar import Radar
 
@@ -16,6 +19,13 @@ def _build(defaults: dict, overrides: dict) -> Radar:
     unknown = set(overrides) - set(Radar.__dataclass_fields__)
     if unknown:
         raise ValueError(f"unknown radar parameter(s) {sorted(unknown)}")
+    for name, value in overrides.items():
+        if name == "pattern" or isinstance(value, jax.core.Tracer):
+            continue
+        try:
+            np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}={value!r} is not a number") from None
     return Radar(**{**defaults, **overrides})
 
 

@@ -150,6 +150,8 @@ def test_unknown_preset_override(preset):
         preset(frequency=9.65e9)
     with pytest.raises(ValueError, match=r"\['bogus', 'wavelength'\]"):
         preset(wavelength=0.03, bogus=1, prf=100.0)
+    with pytest.raises(ValueError, match=r"prf='fast' is not a number"):
+        preset(prf="fast")
 
 
 # ---- scene -------------------------------------------------------------------------
