@@ -401,7 +401,7 @@ def _interp_motion(values, x_query, x0, dx):
 
 def range_alias_sets(eta, range_spacing, range_aliases, alias_columns):
     """The range aliases to synthesise: a list of (m, column indices or None for all,
-    (count,) wavenumbers η + 2πm/Δr of those columns).
+    (count,) wavenumbers η + 2πm/Δr of those columns), the main band m = 0 first.
 
     Alias m ≠ 0 only matters for the columns whose η + 2πm/Δr lies near the band edge: a
     static count per alias (``alias_columns``, from :func:`alias_column_count`; None:
@@ -417,7 +417,7 @@ def range_alias_sets(eta, range_spacing, range_aliases, alias_columns):
     step = _TWO_PI / range_spacing
     half = n_r // 2
     sets = []
-    for m in range(-range_aliases, range_aliases + 1):
+    for m in sorted(range(-range_aliases, range_aliases + 1), key=abs):  # m = 0 first
         if m == 0:
             sets.append((0, None, eta + 0.0))
             continue
@@ -670,7 +670,7 @@ class _FourierBase(AbstractSimulator):
         pointing_scale = (1 + delta_kept / radar.reference_range) * pointing
         # δx/X = (r + δr_xr) δ_az / X ≈ (L/λ)(1 + δr/r₀) δ_az; (−L/λ)ⁿ is in row_weight
         scale_powers = {n: pointing_scale**n for n in orders if n}
-        total = jnp.zeros((n_r, n_pulses), jnp.complex128)  # (η, x')
+        total = None  # (η, x'); the main band (m = 0, every column) comes first
         for m, cols, eta_m in alias_sets:
             # the aliases carry ≲ −20 dB of the echo: 6 taps (−34 dB on 1.8× oversampled
             # rows; 4 taps: −21 dB) suffice there, and cost about what 8 do
@@ -708,7 +708,10 @@ class _FourierBase(AbstractSimulator):
                 produce, terms, eta_m, None if mode == "ideal" else delta_kept, scale_powers,
                 k0, pad=pad, num_pulses=n_pulses, block=block, loops=self.column_loops,
             )
-            total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
+            if total is None:
+                total = per_alias
+            else:
+                total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
         raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
         return raw.astype(dtype)
 
