@@ -16,17 +16,15 @@ from . import _memory, _validate
 from ._data import Acquisition, RawData
 from .motion import Motion
 from .scene import PointTargets, ReflectivityGrid
-from .validity import FASTEST_FIRST, choose_method
 from .simulators import (
     AbstractSimulator,
     ChirpScaling,
     HighSpeed,
-    ModerateDeviation,
-    SmallDeviation,
     TimeDomain,
     TimeDomainNUFFT,
 )
 from .simulators._squint import SquintFourier2D, SquintModerateDeviation, SquintSmallDeviation
+from .validity import FASTEST_FIRST, choose_method
 
 _METHODS = {
     "time_domain": TimeDomain,

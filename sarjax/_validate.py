@@ -113,7 +113,7 @@ def check_motion(motion, num_pulses):
             rows, cols = rows[:5], cols[:5]
             raise ValueError(
                 f"motion.{name} has non-finite values {c[rows, cols]} at (realization, pulse) "
-                f"{list(zip(rows.tolist(), cols.tolist()))}"
+                f"{list(zip(rows.tolist(), cols.tolist(), strict=True))}"
             )
     return batch
 

@@ -14,7 +14,6 @@ from .antenna import AbstractPattern, Sinc2Pattern
 from .constants import SPEED_OF_LIGHT
 
 
-
 def _leaf():
     return eqx.field(converter=lambda v: jnp.asarray(v, dtype=float))
 

@@ -61,7 +61,8 @@ class Budget:
 
     def __str__(self):
         verdict = "ok" if self.ok else "VIOLATED"
-        return f"{self.name:<15} {self.value:10.4g} ≤ {self.threshold:<8.3g} {verdict:<9} {self.meaning}"
+        return (f"{self.name:<15} {self.value:10.4g} ≤ {self.threshold:<8.3g} {verdict:<9} "
+                f"{self.meaning}")
 
 
 @dataclass(frozen=True)
@@ -164,7 +165,8 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, azimuth_cent
     if method == "time_domain":
         return Validity(method, ())
     if method not in _APPROXIMATE:
-        raise ValueError(f"unknown method={method!r}; choose one of {_APPROXIMATE + ('time_domain',)}")
+        choices = _APPROXIMATE + ("time_domain",)
+        raise ValueError(f"unknown method={method!r}; choose one of {choices}")
     motion = Motion() if motion is None else motion
     n = radar.num_pulses if num_pulses is None else num_pulses
     if float(np.asarray(radar.squint)) != 0.0:

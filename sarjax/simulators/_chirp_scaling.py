@@ -114,7 +114,6 @@ class ChirpScaling(AbstractSimulator):
         pad, n_r = sim.azimuth_pad, sim.range_fft_size
         n_x = next_fast_len(n_pulses + 2 * pad)
         dx, dr = radar.azimuth_spacing, radar.range_spacing
-        k0 = radar.wavenumber
         near = acquisition.near_range
         x0 = acquisition.pulse_azimuths(radar)[0] - pad * dx
         r_ref = near + (n_range // 2) * dr if sim.reference_range is None else sim.reference_range
