@@ -537,14 +537,20 @@ class _FourierBase(AbstractSimulator):
                            if self.alias_columns is None else self.alias_columns),
         )
 
-    def _run(self, radar, scene, motion, acquisition, dtype, mode):
+    def work_sizes(self, acquisition):
+        """Static (azimuth pad, n_r, n_x, column block) of the engine's grids: those fixed
+        by ``prepare()`` (eagerly), or generous defaults without it."""
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-        prepared = prepare_scene(scene)
-        # static sizes fixed by prepare() (eagerly); without it, generous defaults
         pad = n_pulses if self.azimuth_pad is None else self.azimuth_pad
         n_r = self.range_fft_size or next_fast_len(2 * n_range)
         n_x = next_fast_len(n_pulses + 2 * pad)
         block = self.column_block or max(8, (1 << 20) // (16 * n_x))
+        return pad, n_r, n_x, block
+
+    def _run(self, radar, scene, motion, acquisition, dtype, mode):
+        n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
+        prepared = prepare_scene(scene)
+        pad, n_r, n_x, block = self.work_sizes(acquisition)
 
         dx = radar.azimuth_spacing
         k0 = radar.wavenumber

@@ -267,9 +267,9 @@ class HighSpeed(AbstractSimulator):
             if gridded:
                 # e^{−jξ_d (x_i − x0)} first: the FFT then supplies the offsets from ξ_d
                 ranges = scene.range
+                line_factor = jnp.sqrt(ranges) * jnp.exp(-1j * jnp.mod(k0 * ranges, _TWO_PI))
                 values = (scene.reflectivity * jnp.exp(-1j * xi_c * (scene.azimuth - x0))[:, None]
-                          * (jnp.sqrt(ranges) * jnp.exp(-1j * jnp.mod(k0 * ranges, _TWO_PI)))[None, :]
-                          ).T  # (n_lines, n_az)
+                          * line_factor[None, :]).T  # (n_lines, n_az)
                 # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
                 offset = (scene.azimuth[0] - x0) / dx
                 groups.append((v_r, v_a, _grid_spectra(values, offset, n_x), ranges, offset))

@@ -145,10 +145,7 @@ def run_squinted(sim, radar, scene, motion, acquisition, dtype, mode):
     ``"moderate"``. Returns (num_pulses, num_range) raw data."""
     n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
     prepared = prepare_scene(scene)
-    pad = n_pulses if sim.azimuth_pad is None else sim.azimuth_pad
-    n_r = sim.range_fft_size or next_fast_len(2 * n_range)
-    n_x = next_fast_len(n_pulses + 2 * pad)
-    block = sim.column_block or max(8, (1 << 20) // (16 * n_x))
+    pad, n_r, n_x, block = sim.work_sizes(acquisition)
 
     dx = radar.azimuth_spacing
     k0 = radar.wavenumber
