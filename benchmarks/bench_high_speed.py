@@ -7,6 +7,9 @@ three moving ones in three velocity groups (``mixed``: (v_r, v_a) = (0.5, 0), (1
 (−1, 0.5) m/s). The simulator's default azimuth padding (one footprint, 4 km, each
 side) and the 40 µs chirp (28 800 samples) make its working grid 7500 × 62 208.
 
+Order: the FFT2 baseline, the static scene, the accuracy check, the mixed scene; a run
+stopped by SIGTERM writes what it measured and names the stages it did not finish.
+
 Each scene runs in its own process under ``/usr/bin/time -v`` (peak resident memory):
 compile = ahead-of-time lower + compile of the jitted entry point
 (``bench_time_domain.aot_compile_time``, which fills the compilation cache); steady =
@@ -43,6 +46,7 @@ import argparse
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import tempfile
@@ -149,15 +153,23 @@ def child(args):
 
 
 def _run_child(args):
+    """Run one measurement in a new process (session) and parse its result and peak RSS;
+    on an interrupt the whole session (``/usr/bin/time`` and Python) is killed."""
     cmd = [sys.executable, __file__, "--child", json.dumps(args)]
     if Path("/usr/bin/time").exists():
         cmd = ["/usr/bin/time", "-v", *cmd]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
-    out = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=REPO, start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate()
+    except BaseException:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+    out = [ln for ln in stdout.splitlines() if ln.startswith("RESULT ")]
     if proc.returncode != 0 or not out:
-        raise RuntimeError(f"child {args['what']} failed ({proc.returncode}):\n"
-                           f"{proc.stderr[-3000:]}")
-    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
+        raise RuntimeError(f"child {args['what']} failed ({proc.returncode}):\n{stderr[-3000:]}")
+    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", stderr)
     peak = int(match.group(1)) / 1024**2 if match else float("nan")
     return json.loads(out[-1][len("RESULT "):]), peak
 
@@ -212,6 +224,84 @@ def _compile_text(r):
     return f"{r['lower'] + r['compile']:.1f}"
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def section(info, cfg, quick, grid, fft, rows, acc, load, load_end, total, missing):
+    """The RESULTS.md section from what was measured (``missing``: stages not finished)."""
+    radar = _radar(cfg)
+    n_x, n_r = grid
+    size = f"{cfg['pulses']} × {cfg['range']}"
+    mode = "reduced (`--quick`)" if quick else "full size"
+    base = ("not measured" if fft is None else
+            f"{fft['wall']:.2f} s (CPU {fft['cpu']:.2f} s; peak RSS {fft[' peak']:.2f} GB)")
+    lines = [
+        "## High-speed simulator, seed 004 Table 1 (`bench_high_speed.py`)",
+        "",
+        f"Machine: {info['cpu']}, {info['cores']} cores ({info['usable_cores']} usable), "
+        f"JAX {info['jax']} ({info['backend']}), commit {info['commit']}, {info['date']}; "
+        f"load average {load:.2f} at start, {load_end:.2f} at the end; whole run "
+        f"{total / 60:.0f} min.",
+        "",
+        f"{mode}: raw grid {size} (`sj.presets.highspeed_xband()`, seed 004 Table 1; chirp "
+        f"{cfg['chirp'] * 1e6:g} µs), complex64, azimuth padding {cfg['padding']:g} footprint "
+        f"each side (footprint {float(radar.footprint(R0)) / 1e3:.0f} km): working grid "
+        f"{n_x} × {n_r} (range padded by the chirp and the walk), never held whole (range-"
+        f"wavenumber column chunks). Baseline: one jitted complex64 FFT2 of that grid, {base}, "
+        "in its own process of the same run. Each scene in its own process "
+        "(`/usr/bin/time -v`: peak resident memory). Compile: ahead-of-time lower + compile "
+        f"of the jitted entry point; steady: min of {cfg['repeats']} call(s) after it (CPU "
+        "time of that call).",
+    ]
+    if missing:
+        lines += ["", f"**Not finished: {', '.join(missing)}** (the run was stopped)."]
+    if rows:
+        lines += [
+            "",
+            "| scene | velocity groups | compile [s] | steady [s] | CPU [s] | steady / FFT2 "
+            "| peak RSS [GB] |",
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        ]
+        for scene, groups, r, peak in rows:
+            ratio = "–" if fft is None else f"{r['wall'] / fft['wall']:.0f}"
+            lines.append(
+                f"| {scene} ({'5 static' if scene == 'static' else '5 static + 3 moving'}) "
+                f"| {groups} | {_compile_text(r)} | {r['wall']:.1f} | {r['cpu']:.1f} "
+                f"| {ratio} | {peak:.2f} |")
+    if acc:
+        lines += [
+            "",
+            f"Accuracy, the static scene on the same {size} grid: `high_speed` (complex64) "
+            "against the exact model without stop-and-go (`time_domain`, `stop_and_go=False`,"
+            f" complex128, {acc['t_exact']:.0f} s): raw NMSE {acc['nmse']:.1f} dB, phase rms "
+            f"{acc['phase']:.3f} rad (samples within 20 dB of the maximum"
+            f"{'; the reduced padding wraps the apertures around' if quick else ''}). Target "
+            "at (0, 800 km) focused by `exact_backprojection` (stop_and_go=False, uniform "
+            f"azimuth weighting) on a 128 × 128 patch ({acc['patch'][0]:.3f} m × "
+            f"{acc['patch'][1]:.4f} m; {acc['t_focus']:.0f} s each):",
+            "",
+            "| simulator | IRW rg [m] | PSLR rg [dB] | ISLR rg [dB] | IRW az [m] "
+            "| PSLR az [dB] | ISLR az [dB] | peak (az, rg − r) [mm] |",
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        ]
+        for name in ("high_speed", "exact"):
+            m = acc[name]
+            lines.append(
+                f"| {name if name == 'high_speed' else 'exact (time_domain)'} "
+                f"| {m.irw_range:.3f} | {m.pslr_range:.2f} | {m.islr_range:.2f} "
+                f"| {m.irw_azimuth:.3f} | {m.pslr_azimuth:.2f} | {m.islr_azimuth:.2f} "
+                f"| ({m.peak_azimuth * 1e3:.1f}, {(m.peak_range - R0) * 1e3:.2f}) |")
+        lines += [
+            "",
+            "Seed 004 Table 2: IRW 0.96 m / 0.95 m, PSLR −13.27 / −13.23 dB, ISLR −10.23 / "
+            "−10.19 dB (range / azimuth); its IRWs are not the 600 MHz slant-range resolution "
+            "(0.886 c/2B = 0.22 m) nor this raw grid's azimuth resolution, so PSLR and ISLR "
+            "compare directly, IRW between the two simulators.",
+        ]
+    return "\n".join(lines)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--child", help=argparse.SUPPRESS)
@@ -231,84 +321,40 @@ def main(argv=None):
     cfg = dict(QUICK if args.quick else FULL)
     if args.repeats:
         cfg["repeats"] = args.repeats
+    # SIGTERM (a stopped run) writes what was measured; the running child is killed
+    signal.signal(signal.SIGTERM, _interrupt)
     t_start = time.perf_counter()
     info = machine_info()
     load = os.getloadavg()[0]
-    radar = _radar(cfg)
-    size = f"{cfg['pulses']} × {cfg['range']}"
     n_x, n_r, _ = working_grid(cfg)
-    print(f"raw {size}, chirp {cfg['chirp'] * 1e6:g} µs, working grid {n_x} × {n_r}",
-          flush=True)
-    fft, fft_peak = _run_child(dict(what="fft", cfg=cfg, shape=[n_x, n_r]))
-    print("FFT2", fft, f"peak RSS {fft_peak:.2f} GB", flush=True)
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        raw_path = str(Path(tmp) / "static.npy")
-        for scene in ("static", "mixed"):
-            res, peak = _run_child(dict(what=scene, cfg=cfg,
-                                        save=raw_path if scene == "static" else None))
-            rows.append((scene, working_grid(cfg, scene)[2], res, peak))
-            print(scene, res, f"peak RSS {peak:.2f} GB", flush=True)
-        acc = accuracy(cfg, raw_path)
-    load_end = os.getloadavg()[0]
-    total = time.perf_counter() - t_start
-    mode = "reduced (`--quick`)" if args.quick else "full size"
-    lines = [
-        "## High-speed simulator, seed 004 Table 1 (`bench_high_speed.py`)",
-        "",
-        f"Machine: {info['cpu']}, {info['cores']} cores ({info['usable_cores']} usable), "
-        f"JAX {info['jax']} ({info['backend']}), commit {info['commit']}, {info['date']}; "
-        f"load average {load:.2f} at start, {load_end:.2f} at the end; whole run "
-        f"{total / 60:.0f} min.",
-        "",
-        f"{mode}: raw grid {size} (`sj.presets.highspeed_xband()`, seed 004 Table 1; chirp "
-        f"{cfg['chirp'] * 1e6:g} µs), complex64, azimuth padding {cfg['padding']:g} footprint "
-        f"each side (footprint {float(radar.footprint(R0)) / 1e3:.0f} km): working grid "
-        f"{n_x} × {n_r} (range padded by the chirp and the walk), never held whole (range-"
-        "wavenumber column chunks). Baseline: one jitted complex64 FFT2 of that grid, "
-        f"{fft['wall']:.2f} s (CPU {fft['cpu']:.2f} s; peak RSS {fft_peak:.2f} GB), in its "
-        "own process of the same run. Each scene in its own process (`/usr/bin/time -v`: "
-        "peak resident memory). Compile: ahead-of-time lower + compile of the jitted entry "
-        f"point; steady: min of {cfg['repeats']} call(s) after it (CPU time of that call).",
-        "",
-        "| scene | velocity groups | compile [s] | steady [s] | CPU [s] | steady / FFT2 "
-        "| peak RSS [GB] |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    for scene, groups, r, peak in rows:
-        lines.append(
-            f"| {scene} ({'5 static' if scene == 'static' else '5 static + 3 moving'}) "
-            f"| {groups} | {_compile_text(r)} | {r['wall']:.1f} | {r['cpu']:.1f} "
-            f"| {r['wall'] / fft['wall']:.0f} | {peak:.2f} |")
-    hs, ex = acc["high_speed"], acc["exact"]
-    lines += [
-        "",
-        f"Accuracy, the static scene on the same {size} grid: `high_speed` (complex64) "
-        "against the exact model without stop-and-go (`time_domain`, `stop_and_go=False`, "
-        f"complex128, {acc['t_exact']:.0f} s): raw NMSE {acc['nmse']:.1f} dB, phase rms "
-        f"{acc['phase']:.3f} rad (samples within 20 dB of the maximum"
-        f"{'; the reduced padding wraps the apertures around' if args.quick else ''}). Target at "
-        "(0, 800 km) focused by `exact_backprojection` (stop_and_go=False, uniform azimuth "
-        f"weighting) on a 128 × 128 patch ({acc['patch'][0]:.3f} m × {acc['patch'][1]:.4f} m;"
-        f" {acc['t_focus']:.0f} s each):",
-        "",
-        "| simulator | IRW rg [m] | PSLR rg [dB] | ISLR rg [dB] | IRW az [m] | PSLR az [dB] "
-        "| ISLR az [dB] | peak (az, rg − r) [mm] |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    for name, m in (("high_speed", hs), ("exact (time_domain)", ex)):
-        lines.append(
-            f"| {name} | {m.irw_range:.3f} | {m.pslr_range:.2f} | {m.islr_range:.2f} "
-            f"| {m.irw_azimuth:.3f} | {m.pslr_azimuth:.2f} | {m.islr_azimuth:.2f} "
-            f"| ({m.peak_azimuth * 1e3:.1f}, {(m.peak_range - R0) * 1e3:.2f}) |")
-    lines += [
-        "",
-        "Seed 004 Table 2: IRW 0.96 m / 0.95 m, PSLR −13.27 / −13.23 dB, ISLR −10.23 / "
-        "−10.19 dB (range / azimuth); its IRWs are not the 600 MHz slant-range resolution "
-        "(0.886 c/2B = 0.22 m) nor this raw grid's azimuth resolution, so PSLR and ISLR "
-        "compare directly, IRW between the two simulators.",
-    ]
-    text = "\n".join(lines)
+    print(f"raw {cfg['pulses']} × {cfg['range']}, chirp {cfg['chirp'] * 1e6:g} µs, working "
+          f"grid {n_x} × {n_r}", flush=True)
+    fft, rows, acc = None, [], None
+    stages = ["FFT2 baseline", "static scene", "accuracy", "mixed scene"]
+    done = 0
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            fft, fft_peak = _run_child(dict(what="fft", cfg=cfg, shape=[n_x, n_r]))
+            fft[" peak"] = fft_peak
+            print("FFT2", fft, flush=True)
+            done = 1
+            raw_path = str(Path(tmp) / "static.npy")
+            res, peak = _run_child(dict(what="static", cfg=cfg, save=raw_path))
+            rows.append(("static", 1, res, peak))
+            print("static", res, f"peak RSS {peak:.2f} GB", flush=True)
+            done = 2
+            acc = accuracy(cfg, raw_path)
+            print("accuracy", {k: v for k, v in acc.items() if k not in ("high_speed", "exact")},
+                  flush=True)
+            done = 3
+            res, peak = _run_child(dict(what="mixed", cfg=cfg))
+            rows.append(("mixed", working_grid(cfg, "mixed")[2], res, peak))
+            print("mixed", res, f"peak RSS {peak:.2f} GB", flush=True)
+            done = 4
+    except KeyboardInterrupt as err:
+        print(f"stopped ({err}) during: {stages[done]}", flush=True)
+    text = section(info, cfg, args.quick, (n_x, n_r), fft, rows, acc, load,
+                   os.getloadavg()[0], time.perf_counter() - t_start, stages[done:])
     print(text)
     if not (args.no_write or (args.quick and not args.write)):
         replace_section(HERE / "RESULTS.md", NAME, text)
