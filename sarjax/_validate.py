@@ -58,6 +58,12 @@ def check_radar(radar):
         raise ValueError(f"radar.squint={sq} is not finite")
 
 
+def _finite_sum(values) -> bool:
+    """Whether the sum of ``values`` is finite (False also for an overflowing sum)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.isfinite(np.sum(values)))
+
+
 def check_scene(scene, radar):
     if scene.num_scatterers == 0:
         raise ValueError("the scene is empty (0 scatterers): nothing to simulate")
@@ -66,11 +72,14 @@ def check_scene(scene, radar):
         if not hasattr(scene, name):
             continue
         v = _concrete(getattr(scene, name))
-        if v is not None and not np.all(np.isfinite(v)):
+        # a sum is finite when every value is (one pass; the slow search only on failure)
+        if v is not None and not _finite_sum(v) and not np.all(np.isfinite(v)):
             bad = np.flatnonzero(~np.isfinite(v))[:5]
             raise ValueError(f"scene.{name} has non-finite values {v[bad]} at indices {bad}")
     r, h, H = _concrete(scene.range), _concrete(scene.height), _concrete(radar.height)
     if r is not None and h is not None and r.ndim == 1 and h.ndim == 2:  # grid
+        if H is not None and np.all(r > H - np.min(h, axis=0)):
+            return  # the lowest cell of every range line is below the platform's range
         r = np.broadcast_to(r[None, :], h.shape).ravel()
         h = h.ravel()
     if r is not None and h is not None and H is not None:
@@ -266,10 +275,13 @@ def echoes_outside_window(radar, scene, motion, acquisition):
     farthest = np.maximum(np.abs(first - x), np.abs(last - x))
     far = near + (acquisition.num_range - 1) * dr
     reach = half_pulse + margin + walk
-    start = np.sqrt(r**2 + nearest**2) - reach
-    end = np.sqrt(r**2 + farthest**2) + reach
-    return np.broadcast_to((start > far) | (end < near), np.broadcast_shapes(
-        np.shape(x), np.shape(r)))
+    # start = √(r² + nearest²) − reach > far and end = √(r² + farthest²) + reach < near,
+    # compared in squares (no square root per scatterer)
+    r2 = r**2
+    beyond = r2 + nearest**2 > (far + reach) ** 2
+    low = near - reach
+    before = (r2 + farthest**2 < low**2) & (low > 0)
+    return np.broadcast_to(beyond | before, np.broadcast_shapes(np.shape(x), np.shape(r)))
 
 
 def _validity_method(simulator):
