@@ -47,7 +47,6 @@ import numpy as np
 from .. import geometry
 from .._phasor import unit_phasor
 from ..processing._interpolation import (
-    PeriodicRows,
     next_fast_len,
     periodic_rows,
     sinc_interpolate_rows,
@@ -207,62 +206,29 @@ def dtft_length(n_lines):
     return next_fast_len(max(-(-9 * n_lines // 5), 2))
 
 
-def grid_spectrum_dtft(values, n_x, loops=2, chunk=256):
-    """Azimuth DFT and range-line DTFT of a grid (:class:`PeriodicRows` of the (n_x, p)
-    table).
+def grid_spectrum_dtft(values, n_x):
+    """Azimuth DFT and range-line DTFT of a grid in one 2-D FFT (:class:`PeriodicRows`
+    of the (n_x, p) table).
 
     ``D(ξ, ω_k) = Σ_j Σ_i v[i, j] e^{−jξ iΔx} e^{−jω_k (j − j_c)}``: :func:`grid_dtft` of
-    the rows of :func:`_grid_azimuth_fft`. Both transforms run along the last axis in
-    chunks (of lines, then of ξ rows), in ``loops`` independent loops that run
-    concurrently (a single FFT of the whole table runs on one core).
+    the rows of :func:`_grid_azimuth_fft`, made without the (n_lines, n_x) intermediate
+    and its transpose.
 
     Args:
         values: (n_az, n_lines) reflectivity on the grid (cell i at offset i from the
             grid's first row; see :func:`_grid_azimuth_ramp`).
         n_x: azimuth DFT length (≥ n_az).
-        loops: independent loops per stage.
-        chunk: rows per step of a loop.
     """
     n_az, n_lines = values.shape
     p = dtft_length(n_lines)
     centre = n_lines // 2
-    guard = min(16, p)
-
-    def looped(step, n_rows):
-        """(n_rows, ...) rows made by ``step(start, size)``, in ``loops`` loops of chunks
-        (two or more per loop: a loop of one step would be inlined and run serially)."""
-        size = max(1, min(chunk, -(-n_rows // (2 * max(loops, 1)))))
-        parts, start = [], 0
-        per_loop = -(-n_rows // size)
-        per_loop = -(-per_loop // max(loops, 1))
-        while start < n_rows:
-            count = min(per_loop, (n_rows - start) // size)
-            if count == 0:  # the remainder, shorter than a chunk
-                parts.append(step(start, n_rows - start))
-                break
-            starts = start + size * jnp.arange(count)
-            out = jax.lax.map(lambda a: step(a, size), starts)
-            parts.append(out.reshape((count * size,) + out.shape[2:]))
-            start += count * size
-        return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=0)
-
-    lines = values.T  # (n_lines, n_az)
-
-    def azimuth_dft(start, size):
-        block = jax.lax.dynamic_slice_in_dim(lines, start, size, axis=0)
-        return jnp.fft.fft(block, n=n_x, axis=1)
-
-    spectra = looped(azimuth_dft, n_lines)  # (n_lines, n_x)
-
-    def line_dtft(start, size):
-        rows = jax.lax.dynamic_slice_in_dim(spectra, start, size, axis=1).T  # (ξ, lines)
-        # line j_c at index 0, the lines before it at the end of the period
-        rolled = jnp.concatenate([rows[:, centre:], jnp.zeros((size, p - n_lines), rows.dtype),
-                                  rows[:, :centre]], axis=1)
-        table = jnp.fft.fft(rolled, axis=1)
-        return jnp.concatenate([table, table[:, :guard]], axis=1)
-
-    return PeriodicRows(looped(line_dtft, n_x), p)
+    # line j_c at index 0, the lines before it at the end of the period
+    rolled = jnp.concatenate([values[:, centre:], values[:, :centre]], axis=1)
+    padded = jnp.zeros((n_x, p), values.dtype)
+    padded = jax.lax.dynamic_update_slice(padded, rolled[:, :n_lines - centre], (0, 0))
+    padded = jax.lax.dynamic_update_slice(padded, rolled[:, n_lines - centre:],
+                                          (0, p - centre))
+    return periodic_rows(jnp.fft.fft2(padded))
 
 
 def synthesize_grid(dtft, line_ranges, kappa, taps=8):
