@@ -110,7 +110,9 @@ def backprojection_exact(
         lines, xs, dys, dzs, ok = block
         compressed = range_compress(radar, lines, n_fft=n_fft)
         contributions = jax.vmap(one_pulse)((compressed, xs, dys, dzs))
-        return image + jnp.sum(jnp.where(ok[:, None], contributions, 0.0), axis=0), None
+        # phases are formed in float64; the image accumulates in the raw data's precision
+        summed = jnp.sum(jnp.where(ok[:, None], contributions, 0.0), axis=0)
+        return image + summed.astype(image.dtype), None
 
     init = jnp.zeros(xx.size, jnp.result_type(raw.dtype, jnp.complex64))
     image, _ = jax.lax.scan(body, init, stacked)
