@@ -285,10 +285,11 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
         groups.setdefault(index, []).append((weight, power))
 
     def along_track(values, weight, power):
+        """IFFT_ξ[values · weight] on the acquired pulses, times the per-pulse power."""
         if weight is not None:
             values = values * weight[None, :]
         along = jnp.fft.ifft(values, axis=1)[:, pad:pad + num_pulses]
-        return along if power == 0 else along * scale_powers[power][None, :]
+        return along if power is None else along * power[None, :]
 
     def run(eta_block):
         block_arrays = produce(eta_block)
@@ -296,7 +297,8 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
         for index, group in groups.items():
             values = block_arrays[index]
             if len(group) == 1:
-                acc = acc + along_track(values, *group[0])
+                weight, n = group[0]
+                acc = acc + along_track(values, weight, scale_powers[n] if n else None)
                 continue
             n_x = values.shape[1]
             weights = jnp.stack([jnp.ones(n_x) if w is None else w for w, _ in group])
@@ -304,9 +306,7 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
                                 for _, n in group])
 
             def term(total, weight_power, values=values):
-                weight, power = weight_power
-                along = jnp.fft.ifft(values * weight[None, :], axis=1)
-                return total + along[:, pad:pad + num_pulses] * power[None, :], None
+                return total + along_track(values, *weight_power), None
 
             zero = jnp.zeros((values.shape[0], num_pulses), values.dtype)
             acc = acc + jax.lax.scan(term, zero, (weights, powers))[0]
