@@ -76,7 +76,7 @@ def main(argv=None):
     grid = sj.ReflectivityGrid(gamma, az, rg)
     sim = sj.simulators.ChirpScaling().prepare(radar, grid, sj.Acquisition(
         num_pulses=n_az, num_range=n_rg, near_range=radar.near_range, azimuth_center=0.0))
-    from sarjax.processing._interpolation import next_fast_len
+    from sarjax._numerics.interpolation import next_fast_len
     shape = (next_fast_len(n_az + 2 * sim.azimuth_pad), sim.range_fft_size)
     fft2 = jax.jit(jnp.fft.fft2)
     a = jnp.asarray(rng.normal(size=shape) + 1j * rng.normal(size=shape))

@@ -59,7 +59,7 @@ import numpy as np
 
 import sarjax as sj
 from sarjax import metrics
-from sarjax.processing._interpolation import next_fast_len
+from sarjax._numerics.interpolation import next_fast_len
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent

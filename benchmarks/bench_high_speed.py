@@ -98,7 +98,7 @@ def _scene(name):
 def working_grid(cfg, scene_name="mixed"):
     """(n_x, n_r, velocity groups) of the padded grid ``high_speed`` works on."""
     import sarjax as sj
-    from sarjax.processing._interpolation import next_fast_len
+    from sarjax._numerics.interpolation import next_fast_len
 
     radar = _radar(cfg)
     acq = sj.Acquisition(num_pulses=cfg["pulses"], num_range=cfg["range"],

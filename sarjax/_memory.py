@@ -30,7 +30,7 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
-from .processing._interpolation import next_fast_len
+from ._numerics.interpolation import next_fast_len
 
 ENV_LIMIT = "SARJAX_MEMORY_LIMIT"
 DEFAULT_FRACTION = 0.5  # of the memory available at the call

@@ -13,7 +13,7 @@ import abc
 import equinox as eqx
 import jax.numpy as jnp
 
-from ._phasor import sine
+from ._numerics.phasor import sine
 
 
 class AbstractPattern(eqx.Module):

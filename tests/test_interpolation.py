@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sarjax.processing._interpolation import periodic_rows, sinc_interpolate_rows
+from sarjax._numerics.interpolation import periodic_rows, sinc_interpolate_rows
 from sarjax.simulators._fourier import dtft_length
 
 

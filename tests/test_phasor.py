@@ -1,11 +1,11 @@
-"""Unit phasors from multiply-adds (sarjax._phasor) against NumPy's libm."""
+"""Unit phasors from multiply-adds (sarjax._numerics.phasor) against NumPy's libm."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sarjax._phasor import sine, unit_phasor
+from sarjax._numerics.phasor import sine, unit_phasor
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e3, 1e6, 1e9])

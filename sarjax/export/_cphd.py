@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
+from .._numerics.interpolation import next_fast_len
 from ..constants import SPEED_OF_LIGHT
-from ..processing._interpolation import next_fast_len
 from ..processing._range_compression import matched_filter
 from ._common import (
     atomic_write,

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 
 from .. import geometry
-from ._interpolation import linear_interpolate, next_fast_len
+from .._numerics.interpolation import linear_interpolate, next_fast_len
 
 _TWO_PI = 2 * jnp.pi
 

@@ -24,10 +24,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._numerics.interpolation import linear_interpolate
 from ..constants import SPEED_OF_LIGHT
 from ..simulators import _time_domain
 from ._backprojection import _upsample_lines
-from ._interpolation import linear_interpolate
 from ._range_compression import range_compress
 
 _TWO_PI = 2 * jnp.pi

@@ -5,8 +5,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 
-from .. import _memory
-from .. import _validate
+from .. import _memory, _validate
 from .._data import Image, RawData
 from ..motion import Motion
 from . import _motion_compensation as moco

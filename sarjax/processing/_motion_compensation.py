@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from .. import geometry
-from ._interpolation import next_fast_len
+from .._numerics.interpolation import next_fast_len
 
 
 def first_order(radar, compressed, horizontal, vertical, range_axis):

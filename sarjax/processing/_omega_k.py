@@ -12,7 +12,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from ._interpolation import next_fast_len, sinc_interpolate
+from .._numerics.interpolation import next_fast_len, sinc_interpolate
 
 
 def omega_k(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from ._interpolation import next_fast_len
+from .._numerics.interpolation import next_fast_len
 
 
 def chirp_replica(radar, offsets):

@@ -41,7 +41,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ..processing._interpolation import next_fast_len
+from .._numerics.interpolation import next_fast_len
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
 from ._fourier import chirp_spectrum

@@ -45,12 +45,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._phasor import unit_phasor
-from ..processing._interpolation import (
+from .._numerics.interpolation import (
     next_fast_len,
     periodic_rows,
     sinc_interpolate_rows,
 )
+from .._numerics.phasor import unit_phasor
 from ..scene import PointTargets, ReflectivityGrid
 from ._base import AbstractSimulator
 

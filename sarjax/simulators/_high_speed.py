@@ -64,8 +64,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._numerics.interpolation import next_fast_len, sinc_interpolate
 from ..constants import SPEED_OF_LIGHT
-from ..processing._interpolation import next_fast_len, sinc_interpolate
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
 from ._fourier import check_grid_scene, chirp_spectrum

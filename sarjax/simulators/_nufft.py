@@ -40,8 +40,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._phasor import unit_phasor
-from ..processing._interpolation import next_fast_len
+from .._numerics.interpolation import next_fast_len
+from .._numerics.phasor import unit_phasor
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
 from ._fourier import chirp_spectrum

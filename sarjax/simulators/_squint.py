@@ -60,8 +60,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._phasor import unit_phasor
-from ..processing._interpolation import next_fast_len
+from .._numerics.interpolation import next_fast_len
+from .._numerics.phasor import unit_phasor
 from . import _fourier
 from ._fourier import (
     _coupled_inverse,

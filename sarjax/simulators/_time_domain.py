@@ -45,7 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._phasor import _sin_cos, unit_phasor
+from .._numerics.phasor import _sin_cos, unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractSimulator
@@ -220,7 +220,7 @@ def pulse_echo(radar, pulse, targets, range_axis_offset, dtype, stop_and_go=True
         last = jnp.ceil((radar.pulse_half_length - base64) / dr) - 1
         k = jnp.arange(sample_offsets.shape[0], dtype=jnp.float64)
         inside = (k[None, :] >= first[:, None]) & (k[None, :] <= last[:, None])
-    # sin/cos from multiply-adds (sarjax._phasor; XLA's libm calls cost ~20 ns each on
+    # sin/cos from multiply-adds (sarjax._numerics.phasor; XLA's libm calls cost ~20 ns each on
     # CPU), masked to the pulse
     sin_phase, cos_phase = _sin_cos(phase)
     chirp = jax.lax.complex(jnp.where(inside, cos_phase, 0.0),

@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._phasor import sine
+from .phasor import sine
 
 
 def next_fast_len(n: int) -> int:
