@@ -53,7 +53,35 @@ _SCRIPT = textwrap.dedent("""
                     relative=float(np.max(np.abs(a - b)) / np.max(np.abs(b))),
                     peak=float(np.max(np.abs(b))),
                     devices=len(plan.devices), mesh=[plan.batch_shards, plan.pulse_shards],
-                    output_devices=len(sharded.data.sharding.device_set))
+                    output_devices=len(sharded.data.sharding.device_set),
+                    output_set=sharded.data.sharding.device_set)
+
+    def device_choices():
+        # devices= as a list: two of the four (a 1 x 2 mesh on exactly those), and one
+        # device other than the first (the one-device program, run there)
+        devices = jax.devices()
+        out = compare("time_domain", motion(), devices=[devices[1], devices[3]])
+        out["output_device_ids"] = sorted(d.id for d in out.pop("output_set"))
+        kwargs = dict(num_pulses=num_pulses, num_range=96, near_range=5100.0)
+        fixed = motion()
+        last = sj.simulate(radar, scene, fixed, devices=[devices[3]], **kwargs)
+        first = sj.simulate(radar, scene, fixed, devices=1, **kwargs)
+        return dict(two=out, one=dict(
+            output_device_ids=sorted(d.id for d in last.data.sharding.device_set),
+            max_difference=float(np.max(np.abs(np.asarray(last.data)
+                                               - np.asarray(first.data))))))
+
+    def refusals():
+        # the messages for a count beyond the four devices and for a repeated device
+        out = {}
+        for name, devices in (("too_many", 5), ("repeated", [jax.devices()[2]] * 2)):
+            try:
+                sj.simulate(radar, scene, None, num_pulses=16, num_range=64,
+                            near_range=5100.0, devices=devices)
+                out[name] = None
+            except ValueError as e:
+                out[name] = str(e)
+        return out
 
     results = dict(device_count=jax.device_count(), runs=[])
     for method in methods:
@@ -62,6 +90,10 @@ _SCRIPT = textwrap.dedent("""
         if method == "time_domain":
             results["runs"].append(compare(method, motion(batch=2)))  # a 2 x 2 mesh
             results["runs"].append(compare(method, motion(), devices=2))
+    results["device_choices"] = device_choices()
+    results["refusals"] = refusals()
+    for run in results["runs"]:
+        run.pop("output_set")
     print("RESULTS" + json.dumps(results))
 """)
 
@@ -99,9 +131,41 @@ def _check(results, methods):
             assert runs[method, (8, 45, 96), 4]["mesh"] == [4, 1]
 
 
-def test_four_cpu_devices_equal_one_device():
-    methods = ["time_domain", "small_deviation"]
-    _check(_run_with_devices(methods), methods)
+FOUR_DEVICE_METHODS = ["time_domain", "small_deviation"]
+
+
+@pytest.fixture(scope="module")
+def four_devices():
+    """Every four-device check from one subprocess (its JSON of measured differences)."""
+    return _run_with_devices(FOUR_DEVICE_METHODS)
+
+
+def test_four_cpu_devices_equal_one_device(four_devices):
+    _check(four_devices, FOUR_DEVICE_METHODS)
+
+
+def test_devices_as_a_list_of_four(four_devices):
+    """A list of two of the four devices splits the pulses over exactly those two (equal
+    to one device); a list holding one device gives the one-device program's bits."""
+    two = four_devices["device_choices"]["two"]
+    assert two["mesh"] == [1, 2] and two["devices"] == 2
+    assert two["output_device_ids"] == [1, 3]
+    assert two["peak"] > 0.1 and two["relative"] <= RELATIVE, two
+    assert four_devices["device_choices"]["one"]["max_difference"] == 0.0
+
+
+@pytest.mark.xfail(strict=True, reason="a one-device plan runs on the default device, not "
+                   "on the one device listed in devices=")
+def test_one_listed_device_runs_there(four_devices):
+    assert four_devices["device_choices"]["one"]["output_device_ids"] == [3]
+
+
+def test_bad_devices_with_four(four_devices):
+    """The refusals name the number of devices actually available."""
+    refusals = four_devices["refusals"]
+    assert refusals["too_many"] is not None
+    assert "devices=5 must be between 1 and the 4 available" in refusals["too_many"]
+    assert refusals["repeated"] is not None and "lists a device twice" in refusals["repeated"]
 
 
 @pytest.mark.slow
