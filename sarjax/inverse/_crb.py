@@ -12,8 +12,8 @@ from jax.flatten_util import ravel_pytree
 
 from ..motion import Motion
 from . import _engine, _setup
-from ._fit import _jitter_summary, _profile_std, _scene_centre_direction, project_profiles
 from ._parametrisations import MotionModel, SinusoidalJitter
+from ._result import _jitter_summary, _profile_std, _scene_centre_direction, project_profiles
 
 
 @dataclasses.dataclass(frozen=True)

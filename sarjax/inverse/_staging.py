@@ -20,10 +20,14 @@ deviation, so the joint fit starts from estimates made on the range-compressed d
 
 from __future__ import annotations
 
+import dataclasses
+import time
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _setup
 from ._parametrisations import SinusoidalJitter
 
 UPSAMPLE = 16
@@ -165,3 +169,223 @@ def sinusoid_initial(jitter: SinusoidalJitter, x, values, weights, frequency_bou
     power, a, b = weighted_periodogram(xc, values, weights, fine)
     k = int(np.argmax(power))
     return np.array([a[k], b[k], fine[k]]), float(power[k])
+
+
+# ---- the stages ---------------------------------------------------------------------------
+
+
+def cold_start(radar, scene, model, los, compressed, x, near, sigma_sq, max_deviation,
+               period_bounds, min_snr, record):
+    """Envelope, phase and jitter stages from the compressed lines (azimuth, range) of the
+    support pulses ``x`` (first sample at ``near``); each stage is passed to
+    ``record(name, seconds, params)``.
+
+    Returns ``(params, phase)``: the model parameters and the :class:`PhaseFit` that
+    re-unwraps about another profile (None when no deviation is fitted).
+    """
+    rs = np.asarray(scene.range)[None, :]
+    along = x[:, None] - np.asarray(scene.azimuth)[None, :]
+    angles = _setup.look_angles(radar, scene)
+    los_rows = np.stack([-np.sin(angles), np.cos(angles)], axis=-1)  # (target, 2)
+
+    t0 = time.perf_counter()
+    lines = upsample_lines(compressed)
+    params, pred, design, kh = envelope_stage(
+        radar, model, los, lines, rs, along, los_rows, x, near, sigma_sq, max_deviation,
+        min_snr)
+    record("envelope", time.perf_counter() - t0, params)
+
+    t0 = time.perf_counter()
+    phase = PhaseFit(model=model, los=los, lines=lines, rs=rs, along=along,
+                     los_rows=los_rows, design=design, kh=kh, near=near,
+                     range_spacing=float(radar.range_spacing),
+                     wavenumber=float(radar.wavenumber), wavelength=float(radar.wavelength),
+                     noise=sigma_sq, min_snr=min_snr)
+    dev_params, pred, amp, valid = phase.fit(pred)
+    params.update(dev_params)
+    record("phase", time.perf_counter() - t0, params)
+
+    if model.pointing is not None:
+        t0 = time.perf_counter()
+        params["pointing"] = jitter_stage(radar, scene, model, x, rs, along, amp, valid,
+                                          period_bounds)
+        record("jitter", time.perf_counter() - t0, params)
+    if model.horizontal is None:
+        return params, None
+    return params, phase
+
+
+def envelope_stage(radar, model, los, lines, rs, along, los_rows, x, near, sigma_sq,
+                   max_deviation, min_snr):
+    """The envelope stage (the compressed peaks' ranges): returns ``(params, prediction,
+    design, kh)``, every component's parameters (zero where the envelopes say nothing), the
+    (azimuth, target) line-of-sight prediction [m] and the deviations' linear design and
+    split (None, 0 without deviations)."""
+    dr = float(radar.range_spacing)
+    up = UPSAMPLE
+    nominal = np.sqrt(rs**2 + along**2)  # R_n (azimuth, target)
+    params = {}
+    gain_noise = sigma_sq  # the unitary filter keeps the noise power per sample
+    search = int(np.ceil(max_deviation / dr * up)) + up // 2
+    pos, amp = envelope_peaks(lines, (nominal - near) / dr * up, search)
+    valid = amp**2 > min_snr * gain_noise
+    if valid.sum() < 8:
+        raise ValueError(
+            f"fewer than 8 pulses have a compressed SNR above min_snr={min_snr}: the data "
+            "are too noisy for a cold start"
+        )
+    peak_range = near + pos / up * dr
+    los_env = np.sqrt(np.maximum(peak_range**2 - along**2, 0)) - rs
+    design, kh = None, 0
+    if model.horizontal is not None:
+        design, kh = linear_design(model, x, los)
+        coef, const = fit_los(design, los_rows, los_env, amp**2 * valid,
+                              per_target_constant=True)
+        params.update(_split(model, coef, kh, los))
+        pred = np.einsum("tk,pkj,j->pt", los_rows, design, coef) + const[None, :]
+    else:
+        pred = np.zeros_like(los_env)
+    params.update(_zero_rest(model, params, x))
+    return params, pred, design, kh
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseFit:
+    """The phase stage's data and geometry: the upsampled compressed ``lines``, the
+    scatterers' ranges ``rs`` (1, target) and along-track offsets ``along`` (azimuth,
+    target) [m], their line-of-sight rows (target, 2) (−sin ϑ_t, cos ϑ_t), the
+    deviations' linear design and split (:func:`linear_design`), the first sample's range
+    ``near``, and the per-sample noise power with the SNR threshold of a usable pulse."""
+
+    model: object
+    los: tuple | None
+    lines: np.ndarray
+    rs: np.ndarray
+    along: np.ndarray
+    los_rows: np.ndarray
+    design: np.ndarray | None
+    kh: int
+    near: float
+    range_spacing: float
+    wavenumber: float
+    wavelength: float
+    noise: float
+    min_snr: float
+
+    def fit(self, pred, half_window=8):
+        """Unwrapped-phase line-of-sight fit from the prediction ``pred`` (azimuth, target)
+        [m]: returns (deviation parameters, prediction, compressed amplitudes, valid)."""
+        model, los, design, kh = self.model, self.los, self.design, self.kh
+        rs, along, los_rows = self.rs, self.along, self.los_rows
+        near, dr, k0, up = self.near, self.range_spacing, self.wavenumber, UPSAMPLE
+        has_dev = model.horizontal is not None
+        out = {}
+        weights = np.zeros(pred.shape)
+        phase_based = False
+        for _ in range(8 if has_dev else 1):
+            r_pred = np.sqrt((rs + pred) ** 2 + along**2)
+            z = sample_lines(self.lines, (r_pred - near) / dr * up)
+            amp = np.abs(z)
+            valid = amp**2 > self.min_snr * self.noise
+            if not has_dev:
+                break
+            residual = z * np.exp(1j * k0 * r_pred)
+            fine = np.zeros(residual.shape)
+            for t in range(residual.shape[1]):
+                unwrapped, mask = unwrap_from_peak(residual[:, t], amp[:, t], valid[:, t],
+                                                   half_window)
+                fine[:, t] = unwrapped
+                weights[:, t] = amp[:, t] ** 2 * mask
+            r_fine = r_pred - fine / k0
+            los_fine = np.sqrt(np.maximum(r_fine**2 - along**2, 0)) - rs
+            if phase_based:
+                # robust: pulses a slip put ≥ λ/8 off the previous (phase-based) prediction
+                # do not pull the fit, unless that would drop most of a scatterer's pulses
+                misfit = los_fine - pred
+                misfit -= np.median(misfit, axis=0)[None, :]
+                keep = np.abs(misfit) < self.wavelength / 8
+                enough = keep.sum(axis=0) >= 0.5 * np.maximum((weights > 0).sum(axis=0), 1)
+                weights = weights * np.where(enough[None, :], keep, True)
+            phase_based = True
+            coef, const = fit_los(design, los_rows, los_fine, weights,
+                                  per_target_constant=True)
+            out.update(_split(model, coef, kh, los))
+            new_pred = np.einsum("tk,pkj,j->pt", los_rows, design, coef) + const[None, :]
+            change = np.max(np.abs(new_pred - pred - np.median(new_pred - pred, axis=0)))
+            pred = new_pred
+            if change < self.wavelength / 1000:
+                break
+        return out, pred, amp, valid
+
+    def rephase(self, m3, half_window, keep=None):
+        """Deviation parameters re-unwrapped about the line of sight of ``m3`` (azimuth,
+        3) (Δy, Δz, δ_az): ℓ_t = −Δy sin ϑ_t + Δz cos ϑ_t per scatterer. With ``keep``
+        (azimuth,) bool, the profile is first refitted on the kept pulses only, the
+        others (where the fit is off by a slip) following the smooth model with its
+        data-free coefficients held near zero."""
+        prediction = np.asarray(m3)[:, :2] @ self.los_rows.T
+        if keep is not None:
+            w = np.broadcast_to(keep[:, None].astype(float), prediction.shape)
+            coef, const = fit_los(self.design, self.los_rows, prediction, w,
+                                  per_target_constant=False, ridge=1e-3)
+            prediction = np.einsum("tk,pkj,j->pt", self.los_rows, self.design, coef) \
+                + const[None, :]
+        return self.fit(prediction, half_window)[0]
+
+
+def jitter_stage(radar, scene, model, x, rs, along, amp, valid, period_bounds):
+    """The pointing parameters from the modulation of the compressed amplitudes ``amp``
+    (azimuth, target) by the two-way pattern (``valid``: the pulses used)."""
+    footprint = np.asarray(radar.footprint(scene.range))[None, :]
+    u = along / footprint
+    pattern = np.asarray(jax.vmap(radar.pattern)(jnp.asarray(u.ravel()))).reshape(u.shape)
+    slope = np.asarray(jax.vmap(jax.grad(radar.pattern))(jnp.asarray(u.ravel())))
+    slope = slope.reshape(u.shape)
+    w = valid.astype(float)
+    gain = (amp * pattern * w).sum(0) / np.maximum((pattern**2 * w).sum(0), 1e-300)
+    observed = amp / gain[None, :] - pattern
+    sensitivity = -slope * rs / footprint  # ∂W²/∂δ_az
+    info_t = gain[None, :] ** 2 * sensitivity**2 * w
+    info = info_t.sum(1)
+    delta = np.where(info > 0, (gain[None, :] ** 2 * sensitivity * observed * w).sum(1)
+                     / np.where(info > 0, info, 1.0), 0.0)
+    if isinstance(model.pointing, SinusoidalJitter):
+        v = float(radar.velocity)
+        span = np.ptp(x)
+        t_min, t_max = (4.0 / float(radar.prf), span / (2 * v)) if period_bounds is None \
+            else period_bounds
+        if not (0 < t_min < t_max):
+            raise ValueError(f"jitter_period_bounds={period_bounds!r} must be 0 < T_min < "
+                             "T_max [s]")
+        theta, _ = sinusoid_initial(model.pointing, x, delta, info,
+                                    (1 / (v * t_max), 1 / (v * t_min)))
+        return jnp.asarray(theta)
+    design_p = np.asarray(model.pointing.design(jnp.asarray(x)))
+    if model.pointing.gauge is not None:
+        design_p = design_p @ np.asarray(model.pointing.gauge)
+    sw = np.sqrt(info)[:, None]
+    a = design_p * sw
+    normal = a.T @ a
+    normal += 1e-9 * np.trace(normal) / normal.shape[0] * np.eye(normal.shape[0])
+    return jnp.asarray(np.linalg.solve(normal, a.T @ (delta * sw[:, 0])))
+
+
+def _split(model, coef, kh, los):
+    out = {"horizontal": jnp.asarray(coef[:kh])}
+    if model.vertical is not None and los is None:
+        out["vertical"] = jnp.asarray(coef[kh:])
+    return out
+
+
+def _zero_rest(model, params, x):
+    out = {}
+    for n in model.components:
+        if n in params:
+            continue
+        p = getattr(model, n)
+        if isinstance(p, SinusoidalJitter):
+            # zero amplitude at a mid-band frequency: a neutral start for the amplitude
+            out[n] = jnp.asarray([0.0, 0.0, 4.0 / np.ptp(x)])
+        else:
+            out[n] = jnp.zeros(p.num_params())
+    return out
