@@ -1,0 +1,405 @@
+"""The verbs of the ``sarjax`` command (a click group) and the helpers they share."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from .config import PRESETS, Fail, load_config
+
+_CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+@click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
+             "metrics, fit, check, export, plot.\n\n"
+             "Run 'sarjax COMMAND --help' for the options of a command.")
+def cli():
+    pass
+
+
+# ---- shared helpers ---------------------------------------------------------------------
+
+
+def _out_option(help_text):
+    return click.option("-o", "--out", required=True, type=click.Path(dir_okay=False),
+                        help=help_text)
+
+
+_force = click.option("--force", is_flag=True, help="replace an existing output file")
+
+
+def _progress(total, desc):
+    """A tqdm bar on stderr (hidden when stderr is not a terminal)."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="step", leave=False, disable=None,
+                file=sys.stderr)
+
+
+def _check_output(out, force):
+    """Refuse an output path before any work: an existing file without ``--force``, a
+    folder, or a missing parent folder."""
+    path = Path(out)
+    if path.is_dir():
+        raise Fail(f"output {path} is a folder")
+    if path.exists() and not force:
+        raise Fail(f"{path} exists (pass --force to replace it)")
+    if not path.parent.is_dir():
+        raise Fail(f"folder {path.parent} of the output does not exist")
+
+
+def _load(path, kind):
+    """A file's run (:func:`sarjax.io.load`); ``kind``: the product type it must hold, with
+    radar parameters (None: any)."""
+    from .. import io
+
+    try:
+        run = io.load(path)
+    except OSError as err:
+        raise Fail(f"cannot read {path}: {err}") from None
+    if kind is not None and type(run.product).__name__ != kind:
+        raise Fail(f"{path} holds {type(run.product).__name__}, expected {kind}")
+    if kind is not None and run.radar is None:
+        raise Fail(f"{path} holds no radar parameters")
+    return run
+
+
+# ---- demo -------------------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.option("-o", "--out", default="sarjax_demo", show_default=True,
+              type=click.Path(file_okay=False), help="output folder for the PNG figures")
+@click.option("--pulses", type=int, default=None, help="number of pulses (default 1941)")
+def demo(out, pulses):
+    """Simulate, focus and measure the seed 000 airborne case; write PNG figures."""
+    from ..demo import format_table, run_demo
+
+    t0 = time.perf_counter()
+    rows = run_demo(out, num_pulses=pulses)
+    click.echo()
+    click.echo("Point-target metrics, airborne X-band (seed 000 Table 2), exact time-domain "
+               "raw data,")
+    click.echo("cm-level trajectory deviations + pointing jitter δ_m = λ/(20L), T_b = T_s/10;")
+    click.echo("ω-k focusing over the full PRF band (azimuth pattern equalised):")
+    click.echo(format_table(rows))
+    click.echo(f"\ntotal {time.perf_counter() - t0:.1f} s")
+
+
+# ---- simulate, focus ----------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("config", type=click.Path(dir_okay=False))
+@_out_option("output raw-data file (NetCDF, .nc)")
+@click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="override a configuration entry (repeatable), e.g. radar.num_pulses=512")
+@_force
+def simulate(config, out, overrides, force):
+    """Simulate raw data from a TOML configuration (see 'sarjax --help' of the module)."""
+    from .. import io
+    from . import simulate_config  # the package's name (it can be replaced there)
+
+    cfg = load_config(config, overrides)
+    _check_output(out, force)
+    with _progress(2, "simulate") as bar:
+        raw, radar, scene, motion, attrs = simulate_config(cfg)
+        bar.update()
+        io.save(out, raw, radar=radar, scene=scene, motion=motion, attrs=attrs,
+                overwrite=force)
+        bar.update()
+    click.echo(f"wrote {out}: raw data {raw.shape[0]} × {raw.shape[1]} ({raw.method})")
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("raw_file", type=click.Path(dir_okay=False))
+@_out_option("output image file (NetCDF, .nc)")
+@click.option("--method", type=click.Choice(["omega_k", "backprojection"]),
+              default="omega_k", show_default=True, help="focusing algorithm")
+@click.option("--moco", type=click.Choice(["second_order", "first_order", "none"]),
+              default="second_order", show_default=True,
+              help="ω-k motion compensation with the file's motion")
+@click.option("--weighting", type=click.Choice(["uniform", "antenna"]), default="uniform",
+              show_default=True, help="ω-k azimuth weighting over the PRF band")
+@click.option("--nominal-track", is_flag=True,
+              help="ignore the file's motion (focus on the nominal straight track)")
+@_force
+def focus(raw_file, out, method, moco, weighting, nominal_track, force):
+    """Focus a raw-data file into an image file."""
+    from .. import io
+    from ..processing import focus as focus_
+
+    _check_output(out, force)
+    run = _load(raw_file, "RawData")
+    motion = None if nominal_track else run.motion
+    kwargs = {}
+    if method == "omega_k":
+        kwargs = dict(motion_compensation=None if moco == "none" else moco,
+                      azimuth_weighting=weighting)
+    with _progress(2, "focus") as bar:
+        image = focus_(run.radar, run.product, method=method, motion=motion, **kwargs)
+        bar.update()
+        attrs = _focus_attributes(run, raw_file, method, moco, weighting, motion)
+        io.save(out, image, radar=run.radar, scene=run.scene, motion=run.motion,
+                attrs=attrs, overwrite=force)
+        bar.update()
+    click.echo(f"wrote {out}: image {image.shape[0]} × {image.shape[1]} ({method})")
+
+
+def _focus_attributes(run, raw_file, method, moco, weighting, motion):
+    """The image file's attributes: the raw file's run parameters and the focusing."""
+    attrs = {k: v for k, v in run.attrs.items() if k.startswith(("simulate_", "config_"))}
+    attrs.update(focus_method=method, focus_moco=moco if method == "omega_k" else "",
+                 focus_weighting=weighting if method == "omega_k" else "",
+                 focus_track="nominal" if motion is None else "file motion",
+                 source=str(raw_file))
+    return attrs
+
+
+# ---- metrics ----------------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("image_file", type=click.Path(dir_okay=False))
+@click.option("--target", "targets", multiple=True, metavar="X,R",
+              help="target position azimuth,range [m] (repeatable; default: the file's "
+                   "scatterers)")
+@click.option("--half-window", type=int, default=32, show_default=True,
+              help="neighbourhood half-size [samples] (doubled up to twice when the "
+                   "sidelobe window needs it)")
+@click.option("--json", "as_json", is_flag=True, help="print JSON instead of a table")
+def metrics(image_file, targets, half_window, as_json):
+    """IRW, PSLR, ISLR and peak of point targets in an image file."""
+    run = _load(image_file, "Image")
+    positions = _target_positions(targets, run.scene, image_file)
+    results = [((x, r), _point_metrics(run.product, x, r, half_window))
+               for x, r in positions]
+    if as_json:
+        click.echo(_metrics_json(results))
+    else:
+        _echo_metrics_table(results)
+
+
+def _target_positions(targets, scene, image_file):
+    """(azimuth, range) [m] of each ``--target X,R``, or of the file's point targets."""
+    from ..scene import PointTargets
+
+    if targets:
+        positions = []
+        for t in targets:
+            try:
+                x, r = (float(v) for v in t.split(","))
+            except ValueError:
+                raise Fail(f"--target {t!r}: expected X,R in metres") from None
+            positions.append((x, r))
+        return positions
+    if isinstance(scene, PointTargets):
+        return list(zip(map(float, scene.azimuth), map(float, scene.range), strict=True))
+    raise Fail(f"{image_file} holds no point targets: give --target X,R")
+
+
+def _point_metrics(image, x, r, half_window):
+    """The metrics of the target at (x, r), widening the neighbourhood (twice at most)
+    when a wide sidelobe window needs it."""
+    from .. import metrics as metrics_
+
+    for attempt in range(3):
+        try:
+            return metrics_.point_target_metrics(image, azimuth=x, range=r,
+                                                 half_window=half_window * 2**attempt)
+        except ValueError as err:
+            if attempt == 2 or "increase half_window" not in str(err):
+                raise
+
+
+def _metrics_json(results):
+    out = []
+    for (x, r), m in results:
+        d = {k: v for k, v in m.as_dict().items() if k != "peak_value"}
+        out.append({"azimuth": x, "range": r, **{k: float(v) for k, v in d.items()}})
+    return json.dumps(out, indent=1)
+
+
+def _echo_metrics_table(results):
+    from .. import metrics as metrics_
+
+    click.echo(f"{'x [m]':>8} {'r [m]':>9} " + metrics_.PointTargetMetrics.header())
+    for (x, r), m in results:
+        click.echo(f"{x:8.2f} {r:9.2f} " + m.as_row())
+
+
+# ---- fit --------------------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("raw_file", type=click.Path(dir_okay=False))
+@_out_option("output file (NetCDF) holding the raw data and the fitted motion")
+@click.option("--png", type=click.Path(dir_okay=False), default=None,
+              help="also plot the fit against the file's motion (its truth)")
+@_force
+def fit(raw_file, out, png, force):
+    """Estimate the trajectory deviations and pointing error from a raw-data file of a
+    known point-target scene (sarjax.fit_motion)."""
+    from .. import io
+
+    fit_motion = _fit_motion_function()
+    _check_output(out, force)
+    run = _load(raw_file, "RawData")
+    if run.scene is None:
+        raise Fail(f"{raw_file} holds no scene: the fit needs the calibration targets")
+    with _progress(2, "fit") as bar:
+        result = fit_motion(run.radar, run.scene, run.product)
+        bar.update()
+        attrs = {"fit_chi2": float(result.chi2), "fit_converged": int(bool(result.converged)),
+                 "source": str(raw_file)}
+        io.save(out, run.product, radar=run.radar, scene=run.scene, motion=result.motion,
+                attrs=attrs, overwrite=force)
+        bar.update()
+    if png:
+        from .. import plot
+
+        plot.motion_fit(run.product.azimuth, result.motion, truth=run.motion, path=png)
+    click.echo(f"wrote {out}: fitted motion (χ² = {float(result.chi2):.4g}, "
+               f"{'converged' if result.converged else 'not converged'})")
+
+
+def _fit_motion_function():
+    try:
+        from ..inverse import fit_motion
+    except ImportError:
+        raise Fail("motion fitting (sarjax.inverse.fit_motion) is not available in this "
+                   "installation") from None
+    return fit_motion
+
+
+# ---- check ------------------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.option("--preset", type=click.Choice(sorted(PRESETS)), default="airborne",
+              show_default=True)
+@click.option("--deviation", type=float, default=0.02, show_default=True,
+              help="rms of the smooth horizontal and vertical deviations [m]")
+@click.option("--cycles", type=float, default=1.0, show_default=True,
+              help="highest number of deviation cycles per footprint")
+@click.option("--jitter", type=float, default=0.05, show_default=True,
+              help="pointing jitter amplitude in units of λ/L (seed 000: 0.05)")
+@click.option("--ranges", default="4840,5140,5440", show_default=True,
+              help="target ranges [m]")
+@click.option("--pulses", type=int, default=None)
+@click.option("--seed", type=int, default=1, show_default=True)
+def check(preset, deviation, cycles, jitter, ranges, pulses, seed):
+    """Validity budgets of the approximate simulators (no simulation)."""
+    from ..scene import PointTargets
+
+    radar, motion = _check_radar_motion(preset, pulses, deviation, cycles, jitter, seed)
+    target_ranges = _ranges(ranges)
+    scene = PointTargets(azimuth=[0.0] * len(target_ranges), range=target_ranges)
+    click.echo(f"preset {preset}; deviations {deviation} m rms (≤ {cycles} cycles per "
+               f"footprint), jitter δ_m = {jitter} λ/L; targets at {target_ranges} m")
+    for line in method_report(radar, scene, motion):
+        click.echo(line)
+
+
+def _check_radar_motion(preset, pulses, deviation, cycles, jitter, seed):
+    """The preset radar and a smooth deviation (and jitter) on its pulses."""
+    import numpy as np
+
+    from .. import presets
+    from ..motion import Motion, seed_pointing_jitter, smooth_deviation
+
+    radar = getattr(presets, PRESETS[preset])(
+        **({} if pulses is None else {"num_pulses": pulses}))
+    n = radar.num_pulses
+    x = (np.arange(n) - (n - 1) / 2) * float(radar.azimuth_spacing)
+    footprint = float(radar.footprint(radar.reference_range))
+    motion = Motion(
+        horizontal=smooth_deviation(x, key=seed, rms=deviation, max_cycles=cycles,
+                                    aperture=footprint),
+        vertical=smooth_deviation(x, key=seed + 1, rms=deviation, max_cycles=cycles,
+                                  aperture=footprint),
+        pointing=seed_pointing_jitter(radar, x, amplitude_fraction=jitter) if jitter else None,
+    )
+    return radar, motion
+
+
+def _ranges(ranges):
+    try:
+        return [float(v) for v in ranges.split(",")]
+    except ValueError:
+        raise Fail(f"--ranges {ranges!r}: expected comma-separated numbers") from None
+
+
+def method_report(radar, scene, motion):
+    """Yields the validity report of every approximate simulator, fastest first, then the
+    line naming the one ``method='auto'`` would choose."""
+    from ..validity import FASTEST_FIRST, validity
+
+    chosen = None
+    for method in FASTEST_FIRST[:-1]:
+        report = validity(radar, scene, motion, method=method)
+        yield str(report)
+        if chosen is None and report.valid:
+            chosen = method
+    yield f"method='auto' would choose: {chosen or 'time_domain'}"
+
+
+# ---- export, plot -----------------------------------------------------------------------
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("raw_file", type=click.Path(dir_okay=False))
+@_out_option("output file (.cphd or .crsd)")
+@click.option("--format", "fmt", type=click.Choice(["cphd", "crsd"]), required=True,
+              help="CPHD 1.1.0 (FX domain) or CRSD 1.0 (raw chirped echoes)")
+@click.option("--track", type=click.Choice(["true", "nominal"]), default="true",
+              show_default=True, help="antenna positions written into the file")
+@click.option("--latitude", type=float, default=52.0, show_default=True,
+              help="latitude of the scene reference point [deg]")
+@click.option("--longitude", type=float, default=5.0, show_default=True,
+              help="longitude of the scene reference point [deg]")
+@click.option("--heading", type=float, default=0.0, show_default=True,
+              help="flight direction, clockwise from north [deg]")
+@click.option("--side", type=click.Choice(["L", "R"]), default="R", show_default=True,
+              help="side of the track the scene is on")
+@_force
+def export(raw_file, out, fmt, track, latitude, longitude, heading, side, force):
+    """Export a raw-data file to an NGA standard file through sarkit."""
+    from .. import export as export_
+
+    _check_output(out, force)
+    run = _load(raw_file, "RawData")
+    reference = export_.GeoReference(latitude=latitude, longitude=longitude,
+                                      heading=heading, side_of_track=side)
+    writer = export_.to_cphd if fmt == "cphd" else export_.to_crsd
+    with _progress(1, f"export {fmt}") as bar:
+        writer(out, run.radar, run.product, run.motion, track=track, reference=reference,
+               overwrite=force)
+        bar.update()
+    click.echo(f"wrote {out} ({fmt.upper()}, {track} track)")
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("file", type=click.Path(dir_okay=False))
+@_out_option("output PNG")
+@click.option("--dynamic-range", type=float, default=50.0, show_default=True,
+              help="image: dB below the peak shown")
+@_force
+def plot(file, out, dynamic_range, force):
+    """Plot a file: raw data (amplitude and phase) or an image (dB, grey)."""
+    from .. import plot as plot_
+    from ..export._common import atomic_write
+
+    _check_output(out, force)
+    run = _load(file, None)
+    if type(run.product).__name__ == "RawData":
+        fig = plot_.raw_amplitude_phase(run.product)
+    else:
+        fig = plot_.image_db(run.product, dynamic_range=dynamic_range)
+    atomic_write(Path(out), lambda tmp: fig.savefig(tmp, format="png", dpi=110,
+                                                    bbox_inches="tight"), overwrite=force)
+    click.echo(f"wrote {out}")

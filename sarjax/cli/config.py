@@ -1,0 +1,234 @@
+"""Configuration files (TOML) of ``sarjax simulate``: reading, checking, and the run they
+describe.
+
+Keys::
+
+    preset = "airborne"              # airborne | cband | highspeed (sarjax.presets)
+
+    [radar]                          # overrides of any Radar field (SI units)
+    num_pulses = 1025
+
+    [scene]                          # point targets: x [m], closest-approach r [m]
+    azimuth = [0.0, 0.0, 0.0]
+    range = [4840.0, 5140.0, 5440.0]
+    reflectivity = [1.0, 1.0, 1.0]   # optional; also reflectivity_phase [rad], height [m]
+
+    [motion]                         # all optional; absent = ideal straight track
+    deviation_rms = 0.02             # smooth Δy, Δz [m] (sarjax.smooth_deviation)
+    max_cycles = 1.0                 # per footprint
+    seed = 2017
+    jitter = 0.05                    # pointing jitter δ_m in units of λ/L (seed 000 eq. 55)
+    jitter_period = 0.1              # T_b in units of T_s
+
+    [simulate]
+    method = "time_domain"           # or fourier_2d, small_deviation, ..., auto
+    dtype = "complex128"
+
+``--set section.key=value`` overrides any entry (value in TOML syntax).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+
+PRESETS = {"airborne": "airborne_xband", "cband": "spaceborne_cband",
+           "highspeed": "highspeed_xband"}
+
+
+class Fail(Exception):
+    """A handled failure: printed as one line, exit status 2."""
+
+
+def load_config(path=None, overrides=()) -> dict:
+    """Read a TOML configuration and apply ``section.key=value`` overrides."""
+    config = {} if path is None else _read_toml(Path(path))
+    for item in overrides:
+        _apply_override(config, item)
+    _check_sections(config)
+    return config
+
+
+def _read_toml(path):
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise Fail(f"configuration {path} does not exist") from None
+    except IsADirectoryError:
+        raise Fail(f"configuration {path} is a folder, not a TOML file") from None
+    except UnicodeDecodeError:
+        raise Fail(f"configuration {path} is not a text (TOML) file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise Fail(f"{path}: {err}") from None
+
+
+def _apply_override(config, item):
+    """Set the entry of one ``section.key=value`` override (value in TOML syntax, or a bare
+    word taken as a string)."""
+    key, sep, value = item.partition("=")
+    if not sep or not key:
+        raise Fail(f"--set {item!r}: expected section.key=value")
+    try:
+        parsed = tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value  # a bare word: take it as a string
+    *sections, leaf = key.strip().split(".")
+    node = config
+    for section in sections:
+        node = node.setdefault(section, {})
+        if not isinstance(node, dict):
+            raise Fail(f"--set {item!r}: {section!r} is not a table")
+    node[leaf] = parsed
+
+
+def _check_sections(config):
+    known = {"preset", "radar", "scene", "motion", "simulate"}
+    unknown = set(config) - known
+    if unknown:
+        raise Fail(f"unknown configuration entries {sorted(unknown)}; known: {sorted(known)}")
+    for section in known - {"preset"}:
+        if not isinstance(config.get(section, {}), dict):
+            raise Fail(f"[{section}] must be a table, got {section} = {config[section]!r}")
+
+
+def number(name, value, *, integer=False, minimum=None, positive=False):
+    """A configuration value as a finite float (or int), naming it when it is not one."""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
+        raise ValueError(f"{name}={value!r} must be {kind}")
+    if not math.isfinite(value):
+        raise ValueError(f"{name}={value!r} must be finite")
+    if positive and value <= 0:
+        raise ValueError(f"{name}={value!r} must be > 0")
+    if minimum is not None and value < minimum:
+        raise ValueError(f"{name}={value!r} must be ≥ {minimum}")
+    return int(value) if integer else float(value)
+
+
+def numbers(name, value):
+    """A configuration list of numbers (or one number) as a 1-D float array."""
+    import numpy as np
+
+    items = value if isinstance(value, list) else [value]
+    for item in items:
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise ValueError(f"{name}={value!r} must be a number or a list of numbers")
+    return np.asarray(items, float)
+
+
+def build_run(config: dict):
+    """(radar, scene, motion, simulate keyword arguments) from a configuration dict."""
+    import numpy as np
+
+    radar = _radar(config)
+    scene = _scene(config)
+    sim = dict(config.get("simulate", {}))
+    num_pulses = number("simulate.num_pulses", sim.pop("num_pulses", radar.num_pulses),
+                        integer=True, positive=True)
+    azimuth_center = number("simulate.azimuth_center", sim.get("azimuth_center", 0.0))
+    x = azimuth_center + (np.arange(num_pulses) - (num_pulses - 1) / 2) * float(
+        radar.azimuth_spacing)
+    motion = _motion(config, radar, x)
+    sim.setdefault("method", "time_domain")
+    if not isinstance(sim["method"], str):
+        raise ValueError(f"simulate.method={sim['method']!r} must be a method name")
+    sim["num_pulses"] = num_pulses
+    return radar, scene, motion, sim
+
+
+def _radar(config):
+    """The preset's radar with the ``[radar]`` overrides, checked."""
+    from .. import _validate, presets
+
+    preset = config.get("preset", "airborne")
+    if not isinstance(preset, str) or preset not in PRESETS:
+        raise ValueError(f"preset={preset!r}; choose one of {sorted(PRESETS)}")
+    radar_cfg = dict(config.get("radar", {}))
+    for key, value in radar_cfg.items():
+        radar_cfg[key] = number(f"radar.{key}", value,
+                                integer=key in ("num_pulses", "num_range"))
+    radar = getattr(presets, PRESETS[preset])(**radar_cfg)
+    _validate.check_radar(radar)  # before any number is derived from it
+    return radar
+
+
+def _scene(config):
+    """The ``[scene]`` point targets."""
+    import numpy as np
+
+    from ..scene import PointTargets
+
+    scene_cfg = dict(config.get("scene", {}))
+    if "azimuth" not in scene_cfg or "range" not in scene_cfg:
+        raise ValueError("the configuration needs [scene] azimuth = [...] and range = [...]")
+    azimuth = numbers("scene.azimuth", scene_cfg.pop("azimuth"))
+    range_ = numbers("scene.range", scene_cfg.pop("range"))
+    amplitude = (numbers("scene.reflectivity", scene_cfg.pop("reflectivity"))
+                 if "reflectivity" in scene_cfg else np.ones(azimuth.size))
+    phase = numbers("scene.reflectivity_phase", scene_cfg.pop("reflectivity_phase", 0.0))
+    height = scene_cfg.pop("height", None)
+    height = None if height is None else numbers("scene.height", height)
+    if phase.size not in (1, amplitude.size):
+        raise ValueError(f"scene.reflectivity_phase has {phase.size} values, "
+                         f"scene.reflectivity {amplitude.size}")
+    if scene_cfg:
+        raise ValueError(f"unknown [scene] entries {sorted(scene_cfg)}")
+    return PointTargets(azimuth=azimuth, range=range_,
+                        reflectivity=amplitude * np.exp(1j * phase), height=height)
+
+
+def _motion(config, radar, x):
+    """The ``[motion]`` deviations and jitter on the pulses ``x``."""
+    from ..motion import Motion, seed_pointing_jitter, smooth_deviation
+
+    motion_cfg = dict(config.get("motion", {}))
+    rms = number("motion.deviation_rms", motion_cfg.pop("deviation_rms", 0.0), minimum=0)
+    cycles = number("motion.max_cycles", motion_cfg.pop("max_cycles", 1.0), positive=True)
+    seed = number("motion.seed", motion_cfg.pop("seed", 2017), integer=True, minimum=0)
+    jitter = number("motion.jitter", motion_cfg.pop("jitter", 0.0), minimum=0)
+    period = number("motion.jitter_period", motion_cfg.pop("jitter_period", 0.1),
+                    positive=True)
+    if motion_cfg:
+        raise ValueError(f"unknown [motion] entries {sorted(motion_cfg)}")
+    footprint = float(radar.footprint(radar.reference_range))
+    return Motion(
+        horizontal=smooth_deviation(x, key=seed, rms=rms, max_cycles=cycles,
+                                    aperture=footprint) if rms else None,
+        vertical=smooth_deviation(x, key=seed + 1, rms=rms, max_cycles=cycles,
+                                  aperture=footprint) if rms else None,
+        pointing=seed_pointing_jitter(radar, x, amplitude_fraction=jitter,
+                                      period_fraction=period) if jitter else None,
+    )
+
+
+def simulate_config(config: dict):
+    """Run a configuration through :func:`sarjax.simulate`; returns
+    (raw, radar, scene, motion, attributes for the file)."""
+    import numpy as np
+
+    from .. import io
+    from .._simulate import simulate
+
+    radar, scene, motion, sim = build_run(config)
+    sim = dict(sim)
+    method, dtype = sim.pop("method"), sim.pop("dtype", "complex128")
+    try:
+        dtype = np.dtype(dtype)
+    except TypeError:
+        raise ValueError(f"simulate.dtype={dtype!r}: choose 'complex64' or 'complex128'") from None
+    num_pulses = sim.pop("num_pulses")
+    num_range = number("simulate.num_range", sim.pop("num_range", radar.num_range),
+                       integer=True, positive=True)
+    near_range = number("simulate.near_range", sim.pop("near_range", float(radar.near_range)),
+                        positive=True)
+    azimuth_center = number("simulate.azimuth_center", sim.pop("azimuth_center", 0.0))
+    raw = simulate(radar, scene, None if motion.is_ideal else motion, method=method,
+                   num_pulses=num_pulses, num_range=num_range, near_range=near_range,
+                   azimuth_center=azimuth_center, dtype=dtype, **sim)
+    attrs = io.simulate_attributes(method=raw.method, num_pulses=num_pulses,
+                                   num_range=num_range, near_range=near_range,
+                                   azimuth_center=azimuth_center, dtype=dtype, **sim)
+    attrs["config_toml"] = json.dumps(config)
+    return raw, radar, scene, (None if motion.is_ideal else motion), attrs
