@@ -21,12 +21,14 @@ import os
 import re
 import subprocess
 import sys
-import time
 
 import jax
 import numpy as np
 
 import sarjax as sj
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _common import machine, steady, timed  # noqa: E402
 
 BATCH = 8
 
@@ -43,18 +45,15 @@ def _setup(num_pulses, num_range, grid):
     horizontal = np.stack([sj.smooth_deviation(x, key=b, rms=0.02, max_cycles=2, aperture=160.0)
                            for b in range(BATCH)])
     pointing = np.stack([sj.seed_pointing_jitter(radar, x, phase=0.3 * b) for b in range(BATCH)])
-    kwargs = dict(num_pulses=num_pulses, num_range=num_range, near_range=5140.0 - num_range / 2 * dr)
+    kwargs = dict(num_pulses=num_pulses, num_range=num_range,
+                  near_range=5140.0 - num_range / 2 * dr)
     return radar, scene, horizontal, np.asarray(pointing), kwargs
 
 
 def _steady(fn, repeats):
-    fn()
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        jax.block_until_ready(fn())
-        best = min(best, time.perf_counter() - t)
-    return best
+    """The fastest of ``repeats`` calls after a compiling one [s]."""
+    timed(fn)
+    return steady(fn, repeats).min
 
 
 def batch_table(quick):
@@ -67,15 +66,13 @@ def batch_table(quick):
     print("|---|---|---|---|---|---|")
     for method in ("time_domain", "time_domain_nufft", "small_deviation"):
         motion = sj.Motion(horizontal=horizontal, pointing=pointing)
-        t = time.perf_counter()
-        batched = sj.simulate(radar, scene, motion, method=method, **kwargs)
-        batched.data.block_until_ready()
-        first = time.perf_counter() - t
-        steady_b = _steady(lambda m=method: sj.simulate(radar, scene, motion, method=m,
-                                                        **kwargs).data, 3)
+        first, _, batched = timed(lambda m=method, motion=motion: sj.simulate(
+            radar, scene, motion, method=m, **kwargs))
+        steady_b = _steady(lambda m=method, motion=motion: sj.simulate(
+            radar, scene, motion, method=m, **kwargs).data, 3)
         singles = [sj.Motion(horizontal=horizontal[b], pointing=pointing[b]) for b in range(BATCH)]
 
-        def loop(m=method):
+        def loop(m=method, singles=singles):
             return [sj.simulate(radar, scene, s, method=m, **kwargs).data for s in singles]
 
         steady_s = _steady(loop, 2)
@@ -103,7 +100,8 @@ for method, batched in (("time_domain", False), ("time_domain", True),
     run = lambda d: sj.simulate(radar, scene, motion, method=method, devices=d, **kwargs).data
     four, one = b._steady(lambda: run(None), 2), b._steady(lambda: run(1), 2)
     a, r = np.asarray(run(None)), np.asarray(run(1))
-    rows.append(dict(method=method, shape=list(a.shape), mesh=[plan.batch_shards, plan.pulse_shards],
+    rows.append(dict(method=method, shape=list(a.shape),
+                     mesh=[plan.batch_shards, plan.pulse_shards],
                      four=four, one=one, diff=float(np.max(np.abs(a - r)) / np.max(np.abs(r)))))
 print("RESULTS" + json.dumps(rows))
 """
@@ -130,7 +128,7 @@ def sharded_table(quick):
 
 
 _MEMORY = r"""
-import json, sys, time
+import json, sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
 import bench_batch as b
@@ -146,9 +144,8 @@ if limit == "baseline":
     sys.exit()
 try:
     plan = sj.simulation_memory(radar, scene, motion, memory_limit=limit, devices=1, **kwargs)
-    t = time.perf_counter()
-    data = np.asarray(sj.simulate(radar, scene, motion, memory_limit=limit, devices=1, **kwargs).data)
-    wall = time.perf_counter() - t
+    wall, _, data = b.timed(lambda: np.asarray(
+        sj.simulate(radar, scene, motion, memory_limit=limit, devices=1, **kwargs).data))
     np.save(sys.argv[3], data)
     sim = plan.simulator
     print("RESULTS" + json.dumps(dict(limit=limit, estimate=plan.estimate.total, wall=wall,
@@ -205,7 +202,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes")
     args = parser.parse_args()
-    print(f"jax {jax.__version__}, {jax.devices()[0].device_kind}, {os.cpu_count()} CPUs")
+    m = machine()
+    print(f"jax {m['jax']}, {jax.devices()[0].device_kind}, {m['cpu']}, {m['cores']} CPUs, "
+          f"load {m['load']:.2f}, commit {m['commit']}")
     batch_table(args.quick)
     sharded_table(args.quick)
     memory_table(args.quick)

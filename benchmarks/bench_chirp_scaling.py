@@ -21,7 +21,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -33,21 +32,10 @@ import sarjax as sj
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_fourier import machine_info, steady  # noqa: E402
+from _common import load_average, replace_section, steady, timed  # noqa: E402
+from bench_fourier import machine_info  # noqa: E402
 
 NAME = "bench_chirp_scaling"
-
-
-def replace_section(path, name, text):
-    """Replace (or append) the ``<!-- name:start -->`` … ``<!-- name:end -->`` section."""
-    start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-    body = f"{start}\n{text.rstrip()}\n{end}\n"
-    old = path.read_text() if path.exists() else ""
-    if start in old and end in old:
-        new = old[: old.index(start)] + body + old[old.index(end) + len(end) + 1:]
-    else:
-        new = old.rstrip() + "\n\n" + body
-    path.write_text(new)
 
 
 def cut_phase_rms_deg(test, ref):
@@ -65,7 +53,7 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=5)
     args = p.parse_args(argv)
     info = machine_info()
-    load = os.getloadavg()[0]
+    load = load_average()
     radar = sj.presets.spaceborne_cband_extended()
     n_az, n_rg = radar.num_pulses, radar.num_range
     dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
@@ -81,15 +69,16 @@ def main(argv=None):
     fft2 = jax.jit(jnp.fft.fft2)
     a = jnp.asarray(rng.normal(size=shape) + 1j * rng.normal(size=shape))
     jax.block_until_ready(fft2(a))
-    fft_wall, _, _ = steady(lambda: fft2(a), 10)
+    fft_wall = steady(lambda: fft2(a), 10).min
     rows = []
     for padding in (1.0, 0.0):
         for name, dtype in (("complex128", jnp.complex128), ("complex64", jnp.complex64)):
             def call(dtype=dtype, padding=padding):
                 return sj.simulate(radar, grid, method="chirp_scaling", dtype=dtype,
                                    azimuth_padding=padding).data
-            first, _, _ = steady(call, 1)
-            wall, cpu, worst = steady(call, args.repeats)
+            first = timed(call)[0]
+            s = steady(call, args.repeats)
+            wall, cpu, worst = s.min, s.cpu, s.max
             rows.append((f"{name}, azimuth_padding={padding:g}", first - wall, wall, cpu,
                          worst, wall / fft_wall))
     scene = sj.PointTargets(azimuth=[0.0], range=[799.5e3])
@@ -117,7 +106,8 @@ def main(argv=None):
         "| --- | ---: | ---: | ---: | ---: | ---: |",
     ]
     for name, comp, wall, cpu, worst, ratio in rows:
-        lines.append(f"| {name} | {comp:.2f} | {wall:.3f} | {cpu:.3f} | {worst:.3f} | {ratio:.1f} |")
+        lines.append(f"| {name} | {comp:.2f} | {wall:.3f} | {cpu:.3f} | {worst:.3f} "
+                     f"| {ratio:.1f} |")
     padded = min(r[2] for r in rows[:2])
     circular = min(r[2] for r in rows[2:])
     lines += [
@@ -139,7 +129,7 @@ def main(argv=None):
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        replace_section(HERE / "RESULTS.md", NAME, text)
+        replace_section(NAME, text, HERE / "RESULTS.md")
 
 
 if __name__ == "__main__":

@@ -44,13 +44,8 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import datetime
 import hashlib
-import os
-import platform
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import jax
@@ -60,6 +55,9 @@ import numpy as np
 import sarjax as sj
 from sarjax import metrics
 from sarjax._numerics.interpolation import next_fast_len
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import load_average, machine, replace_section, steady, timed  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -114,20 +112,6 @@ def make_motion_arrays(radar, num_pulses):
 # ---- timing helpers -------------------------------------------------------------------
 
 
-def _timed(fn):
-    """(wall s, process CPU s) of fn() with block_until_ready."""
-    c0, t0 = time.process_time(), time.perf_counter()
-    jax.block_until_ready(fn())
-    return time.perf_counter() - t0, time.process_time() - c0
-
-
-def steady(fn, repeats):
-    """(min wall, CPU of that repeat, max wall) over ``repeats`` calls."""
-    runs = [_timed(fn) for _ in range(repeats)]
-    wall, cpu = min(runs)
-    return wall, cpu, max(w for w, _ in runs)
-
-
 def fft_baseline(shape, repeats=20):
     """{dtype: (min wall, CPU of that repeat)} of one jitted 2-D FFT of ``shape``."""
     out = {}
@@ -136,7 +120,8 @@ def fft_baseline(shape, repeats=20):
     for name, dtype in DTYPES.items():
         a = jnp.asarray(rng.normal(size=shape) + 1j * rng.normal(size=shape), dtype)
         jax.block_until_ready(fft2(a))
-        wall, cpu, _ = steady(lambda a=a: fft2(a), repeats)
+        s = steady(lambda a=a: fft2(a), repeats)
+        wall, cpu = s.min, s.cpu
         out[name] = (wall, cpu)
     return out
 
@@ -145,45 +130,10 @@ def fft_baseline(shape, repeats=20):
 
 
 def machine_info():
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-
-    def git(*cmd):
-        try:
-            return subprocess.run(["git", *cmd], cwd=REPO, capture_output=True, text=True,
-                                  timeout=10).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-
-    commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    dirty = bool(git("status", "--porcelain", "--", "sarjax"))
+    """:func:`_common.machine` and the digest of the Fourier simulators' source."""
     src = REPO / "sarjax" / "simulators" / "_fourier.py"
     digest = hashlib.sha256(src.read_bytes()).hexdigest()[:10] if src.exists() else "?"
-    import jaxlib
-
-    return dict(
-        cpu=cpu,
-        cores=os.cpu_count(),
-        usable_cores=usable,
-        jax=jax.__version__,
-        jaxlib=jaxlib.__version__,
-        backend=jax.default_backend(),
-        numpy=np.__version__,
-        python=platform.python_version(),
-        commit=commit + (" (sarjax/ has uncommitted changes)" if dirty else ""),
-        fourier_sha=digest,
-        date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-    )
+    return dict(machine(), fourier_sha=digest)
 
 
 # ---- benchmark ----------------------------------------------------------------------
@@ -206,8 +156,9 @@ def time_case(radar, scene, motion, grid, method, options, dtype, repeats):
                            num_range=num_range, near_range=near, dtype=dtype,
                            **options).data
 
-    first, _ = _timed(call)
-    wall, cpu, worst = steady(call, repeats)
+    first = timed(call)[0]
+    s = steady(call, repeats)
+    wall, cpu, worst = s.min, s.cpu, s.max
     return dict(first=first, compile=first - wall, steady=wall, cpu=cpu, worst=worst)
 
 
@@ -231,10 +182,8 @@ def accuracy_check(radar, gamma, az, rg, height, motion_arrays, sub, sub_raw, dt
                        pointing=motion_arrays[2][ip])
     kw = dict(num_pulses=px, num_range=pr, near_range=near)
 
-    t0 = time.perf_counter()
-    ref = sj.simulate(radar, scene, motion, method="time_domain", **kw)
-    jax.block_until_ready(ref.data)
-    t_ref = time.perf_counter() - t0
+    t_ref, _, ref = timed(lambda: sj.simulate(radar, scene, motion, method="time_domain",
+                                              **kw))
     print(f"  time-domain reference {n_az}×{n_rg} scene on {px}×{pr} raw: {t_ref:.1f} s "
           "(incl. compile)", flush=True)
     ref_ideal = sj.simulate(radar, scene, None, method="time_domain", **kw)
@@ -416,24 +365,6 @@ algorithm A ≈ 5 s, B ≈ 4 min, time domain ≈ 10 h.
 """
 
 
-def write_section(path, text):
-    """Replace the text between the markers (inclusive) or append it; nothing else."""
-    old = path.read_text() if path.exists() else ""
-    start, end = old.find(START), old.find(END)
-    if start >= 0 and end > start:
-        end += len(END)
-        if old[end:end + 1] == "\n":
-            end += 1
-        new = old[:start] + text + old[end:]
-    else:
-        sep = "" if not old or old.endswith("\n\n") else ("\n" if old.endswith("\n") else "\n\n")
-        new = old + sep + text
-    tmp = path.with_suffix(path.suffix + ".bench_fourier.tmp")
-    tmp.write_text(new)
-    os.replace(tmp, path)
-    print(f"wrote section of {path}")
-
-
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -451,7 +382,7 @@ def main(argv=None):
     cfg = QUICK if args.quick else FULL
     write = not args.no_write and (not args.quick or args.write)
     dtypes = ["complex128"] if args.no_complex64 else list(DTYPES)
-    load_start = os.getloadavg()[0]
+    load_start = load_average()
     info = machine_info()
     print(f"{info['cpu']}, {info['cores']} cores, JAX {info['jax']} ({info['backend']}), "
           f"load {load_start:.2f}", flush=True)
@@ -505,10 +436,11 @@ def main(argv=None):
 
     print()
     print(table(rows))
-    load = (load_start, os.getloadavg()[0])
+    load = (load_start, load_average())
     if write:
-        write_section(args.output, section(info, cfg, grid_info, fft, fft_end, rows,
-                                           acc_info, load, argv, args.repeats, ends))
+        replace_section("bench_fourier", section(info, cfg, grid_info, fft, fft_end, rows,
+                                                 acc_info, load, argv, args.repeats, ends),
+                        args.output)
 
 
 if __name__ == "__main__":

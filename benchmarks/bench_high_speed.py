@@ -58,6 +58,15 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
+sys.path.insert(0, str(HERE))
+from _common import (  # noqa: E402
+    aot_compile_time,
+    load_average,
+    replace_section,
+    steady,
+    timed,
+)
+
 NAME = "bench_high_speed"
 C = 299792458.0
 R0 = 800e3
@@ -109,14 +118,6 @@ def working_grid(cfg, scene_name="mixed"):
             len(sim.groups))
 
 
-def _timed(fn):
-    import jax
-
-    c0, t0 = time.process_time(), time.perf_counter()
-    jax.block_until_ready(fn())
-    return time.perf_counter() - t0, time.process_time() - c0
-
-
 def child(args):
     """One measurement in this process: ``fft`` (the baseline) or a scene."""
     import jax
@@ -128,13 +129,10 @@ def child(args):
     if args["what"] == "fft":
         fft2 = jax.jit(jnp.fft.fft2)
         a = jnp.ones(tuple(args["shape"]), jnp.complex64)
-        first = _timed(lambda: fft2(a))[0]
-        runs = [_timed(lambda: fft2(a)) for _ in range(3)]
-        wall, cpu = min(runs)
-        print("RESULT " + json.dumps(dict(first=first, wall=wall, cpu=cpu)), flush=True)
+        first = timed(lambda: fft2(a))[0]
+        s = steady(lambda: fft2(a), 3)
+        print("RESULT " + json.dumps(dict(first=first, wall=s.min, cpu=s.cpu)), flush=True)
         return
-    from bench_time_domain import aot_compile_time
-
     radar = _radar(cfg)
     scene = _scene(args["what"])
 
@@ -144,15 +142,10 @@ def child(args):
 
     # ahead-of-time lower + compile (fills the compilation cache), then the calls
     aot = aot_compile_time(call)
-    c0, t0 = time.process_time(), time.perf_counter()
-    out = jax.block_until_ready(call().data)
-    runs = [(time.perf_counter() - t0, time.process_time() - c0)]
-    del out
-    runs += [_timed(lambda: call().data) for _ in range(cfg["repeats"] - 1)]
-    wall, cpu = min(runs)
+    s = steady(lambda: call().data, cfg["repeats"])
     print("RESULT " + json.dumps(dict(lower=aot[0] if aot else None,
-                                      compile=aot[1] if aot else None, wall=wall, cpu=cpu,
-                                      worst=max(w for w, _ in runs))), flush=True)
+                                      compile=aot[1] if aot else None, wall=s.min,
+                                      cpu=s.cpu, worst=s.max)), flush=True)
 
 
 def _run_child(args):
@@ -197,14 +190,11 @@ def accuracy(cfg):
     radar = _radar(cfg)
     scene = _scene("static")
     out = {}
-    t0 = time.perf_counter()
-    fast_data = np.asarray(sj.simulate(radar, scene, method="high_speed",
-                                       azimuth_padding=cfg["padding"], dtype=jnp.complex64).data)
-    out["t_fast"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    exact = sj.simulate(radar, scene, method="time_domain", stop_and_go=False)
-    exact.data.block_until_ready()
-    out["t_exact"] = time.perf_counter() - t0
+    out["t_fast"], _, fast_data = timed(lambda: np.asarray(sj.simulate(
+        radar, scene, method="high_speed", azimuth_padding=cfg["padding"],
+        dtype=jnp.complex64).data))
+    out["t_exact"], _, exact = timed(
+        lambda: sj.simulate(radar, scene, method="time_domain", stop_and_go=False))
     ref = np.asarray(exact.data)
     out["nmse"] = sj.metrics.nmse_db(fast_data, ref)
     out["phase"] = sj.metrics.phase_error_rms(fast_data, ref)
@@ -216,10 +206,9 @@ def accuracy(cfg):
     ax, rg = patch_axes(radar, cfg)
     out["patch"] = (float(ax[1] - ax[0]), float(rg[1] - rg[0]))
     for name, raw in (("high_speed", fast), ("exact", exact)):
-        t0 = time.perf_counter()
-        image = sj.focus(radar, raw, method="exact_backprojection", azimuth=ax, range=rg,
-                         stop_and_go=False)
-        out["t_focus"] = time.perf_counter() - t0
+        out["t_focus"], _, image = timed(lambda raw=raw: sj.focus(
+            radar, raw, method="exact_backprojection", azimuth=ax, range=rg,
+            stop_and_go=False))
         out[name] = sj.point_target_metrics(image, azimuth=0.0, range=R0, half_window=56)
     return out
 
@@ -331,8 +320,6 @@ def main(argv=None):
     if args.child:
         child(json.loads(args.child))
         return
-    sys.path.insert(0, str(HERE))
-    from bench_chirp_scaling import replace_section
     from bench_fourier import machine_info
 
     cfg = dict(QUICK if args.quick else FULL)
@@ -342,7 +329,7 @@ def main(argv=None):
     signal.signal(signal.SIGTERM, _interrupt)
     t_start = time.perf_counter()
     info = machine_info()
-    load = os.getloadavg()[0]
+    load = load_average()
     n_x, n_r, _ = working_grid(cfg)
     print(f"raw {cfg['pulses']} × {cfg['range']}, chirp {cfg['chirp'] * 1e6:g} µs, working "
           f"grid {n_x} × {n_r}", flush=True)
@@ -370,10 +357,10 @@ def main(argv=None):
     except KeyboardInterrupt as err:
         print(f"stopped ({err}) during: {stages[done]}", flush=True)
     text = section(info, cfg, args.quick, (n_x, n_r), fft, rows, acc, load,
-                   os.getloadavg()[0], time.perf_counter() - t_start, stages[done:], acc_cfg)
+                   load_average(), time.perf_counter() - t_start, stages[done:], acc_cfg)
     print(text)
     if not (args.no_write or (args.quick and not args.write)):
-        replace_section(HERE / "RESULTS.md", NAME, text)
+        replace_section(NAME, text, HERE / "RESULTS.md")
 
 
 if __name__ == "__main__":

@@ -30,18 +30,17 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
-import os
-import platform
 import re
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
+sys.path.insert(0, str(HERE))
+from _common import load_average, machine, replace_section, steady, timed  # noqa: E402
+
 START = "<!-- bench_nufft:start -->"
 END = "<!-- bench_nufft:end -->"
 STEADY_TARGET_S = 30.0
@@ -76,16 +75,9 @@ def _case(n_pulses, n_range, dtype_name, repeats):
                            num_pulses=n_pulses, num_range=n_range, near_range=float(rg[0]),
                            dtype=dtype).data.block_until_ready()
 
-    t0 = time.perf_counter()
-    call()
-    first = time.perf_counter() - t0
-    runs = []
-    for _ in range(repeats):
-        c0, t0 = time.process_time(), time.perf_counter()
-        call()
-        runs.append((time.perf_counter() - t0, time.process_time() - c0))
-    wall, cpu = min(runs)
-    return dict(first=first, steady=wall, cpu=cpu, worst=max(w for w, _ in runs),
+    first = timed(call)[0]
+    s = steady(call, repeats)
+    return dict(first=first, steady=s.min, cpu=s.cpu, worst=s.max,
                 scatterers=n_pulses * n_range, backend=jax.default_backend())
 
 
@@ -134,29 +126,6 @@ def _run_child(args):
     return result, peak
 
 
-def _machine():
-    cpu = platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO,
-                            capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "--", "sarjax"], cwd=REPO,
-                           capture_output=True, text=True).stdout.strip()
-    import jax
-    import numpy as np
-
-    return dict(cpu=cpu, cores=os.cpu_count(), jax=jax.__version__, numpy=np.__version__,
-                python=platform.python_version(),
-                commit=commit + (" (sarjax/ has uncommitted changes)" if dirty else ""),
-                date=datetime.datetime.now(datetime.timezone.utc).strftime(
-                    "%Y-%m-%d %H:%M UTC"))
-
-
 def _section(machine, rows, accuracy, load, size):
     lines = [
         START,
@@ -202,22 +171,6 @@ def _section(machine, rows, accuracy, load, size):
     return "\n".join(lines)
 
 
-def _write(path, text):
-    old = path.read_text() if path.exists() else ""
-    start, end = old.find(START), old.find(END)
-    if start >= 0 and end > start:
-        end += len(END)
-        if old[end:end + 1] == "\n":
-            end += 1
-        new = old[:start] + text + old[end:]
-    else:
-        new = old + ("\n" if old and not old.endswith("\n\n") else "") + text
-    tmp = path.with_suffix(".md.bench_nufft.tmp")
-    tmp.write_text(new)
-    os.replace(tmp, path)
-    print(f"wrote section of {path}")
-
-
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "--child":
@@ -235,8 +188,8 @@ def main(argv=None):
     p.add_argument("--output", type=Path, default=HERE / "RESULTS.md")
     args = p.parse_args(argv)
     size = (128, 416) if args.quick else (972, 416)
-    load0 = os.getloadavg()[0]
-    machine = _machine()
+    load0 = load_average()
+    info = machine()
     rows = []
     for dtype in ("complex128", "complex64"):
         result, peak = _run_child(dict(pulses=size[0], ranges=size[1], dtype=dtype,
@@ -249,11 +202,11 @@ def main(argv=None):
     if not args.no_accuracy:
         accuracy, _ = _run_child(dict(accuracy=True))
         print(f"accuracy: {accuracy}", flush=True)
-    load = (load0, os.getloadavg()[0])
-    text = _section(machine, rows, accuracy, load, size)
+    load = (load0, load_average())
+    text = _section(info, rows, accuracy, load, size)
     print(text)
     if not args.quick:
-        _write(args.output, text)
+        replace_section("bench_nufft", text, args.output)
 
 
 if __name__ == "__main__":

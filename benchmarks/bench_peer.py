@@ -86,7 +86,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -106,11 +105,17 @@ sys.path.insert(0, str(REPO / "tests"))
 sys.path.insert(0, str(HERE))
 
 import reference_numpy  # noqa: E402  (the float64 oracle of the test suite)
-from bench_time_domain import aot_compile_time, machine_info  # noqa: E402
+from _common import (  # noqa: E402
+    aot_compile_time,
+    load_average,
+    machine,
+    replace_section,
+    steady,
+    timed,
+)
 
 C = 299792458.0
 MARKER = "bench_peer"
-START, END = f"<!-- {MARKER}:start -->", f"<!-- {MARKER}:end -->"
 ISOTROPIC_LA = 1e-9  # FastSAR antenna length giving sinc²(u) = 1.0 (u < 1e-8)
 ORACLE_LA = 1e-12  # oracle antenna length giving sinc²(u) = 1.0
 ORACLE_BUDGET = 6e6  # (scatterer × sample) evaluations of the NumPy oracle per workload
@@ -368,12 +373,6 @@ def interior_mask(w):
 # ---- timing ---------------------------------------------------------------------------
 
 
-def timed(fn):
-    c0, t0 = time.process_time(), time.perf_counter()
-    out = jax.block_until_ready(fn())
-    return time.perf_counter() - t0, time.process_time() - c0, out
-
-
 def measure(fn, max_repeats, sarjax_call_for_aot=None):
     """First call, then steady repeats (as many as fit ROW_BUDGET_S, ≥ 1, ≤ max_repeats)."""
     aot = None
@@ -382,10 +381,9 @@ def measure(fn, max_repeats, sarjax_call_for_aot=None):
         jax.clear_caches()
     first, _, out = timed(fn)
     repeats = int(max(1, min(max_repeats, ROW_BUDGET_S // max(first, 1e-3))))
-    runs = [timed(fn)[:2] for _ in range(repeats)]
-    wall, cpu = min(runs)
-    return dict(first=first, steady=wall, cpu=cpu, repeats=repeats,
-                spread=max(r[0] for r in runs) / wall,
+    s = steady(fn, repeats)
+    return dict(first=first, steady=s.min, cpu=s.cpu, repeats=repeats,
+                spread=s.max / s.min,
                 compile=None if aot is None else aot[0] + aot[1]), np.asarray(out)
 
 
@@ -663,15 +661,6 @@ Oracle pulses: {res['oracle_pulses']}.
     return "\n".join(parts)
 
 
-def merge_section(existing, text):
-    """RESULTS.md with this script's marked section replaced (appended if absent)."""
-    block = f"{START}\n{text.strip()}\n{END}"
-    if START in existing and END in existing.split(START, 1)[1]:
-        before, rest = existing.split(START, 1)
-        return before + block + rest.split(END, 1)[1]
-    return existing.rstrip("\n") + "\n\n" + block + "\n"
-
-
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -690,8 +679,8 @@ def main(argv=None):
         finufft_version = finufft.__version__
     except ImportError:
         finufft_version = "not installed"
-    load_start = os.getloadavg()[0]
-    info = machine_info() | dict(fastsar=fastsar.__version__, finufft=finufft_version)
+    load_start = load_average()
+    info = machine() | dict(fastsar=fastsar.__version__, finufft=finufft_version)
     print(f"{info['cpu']}, {info['cores']} cores, JAX {info['jax']} ({info['backend']}), "
           f"FastSAR {info['fastsar']}, load {load_start:.2f}; sarjax methods: "
           + ", ".join(sorted({m for m, _, _ in sarjax_methods()})))
@@ -700,15 +689,13 @@ def main(argv=None):
         if args.only and w.name not in args.only:
             continue
         results.append(run_workload(w))
-    load = (load_start, os.getloadavg()[0])
+    load = (load_start, load_average())
     text = section(info, results, load, argv)
     print()
     for res in results:
         print(f"### {res['workload'].name}\n{table(res)}\n{verdict(res)}\n")
     if write:
-        existing = args.output.read_text() if args.output.exists() else ""
-        args.output.write_text(merge_section(existing, text))
-        print(f"wrote {args.output} (section {START} … {END})")
+        replace_section(MARKER, text, args.output)
 
 
 if __name__ == "__main__":

@@ -31,18 +31,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
-import platform
-import re
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _common import aot_compile_time, load_average, machine, replace_section, steady, timed
 
 import sarjax as sj
 
@@ -61,13 +56,6 @@ SWEEP = [  # (pulse_chunk, scatterer_chunk)
 ]
 DTYPES = {"complex128": jnp.complex128, "complex64": jnp.complex64}
 MARKER = "bench_time_domain"
-START, END = f"<!-- {MARKER}:start -->", f"<!-- {MARKER}:end -->"
-RESULTS_HEADER = """
-# Benchmark results
-
-Each section below is written by one script in this folder (see [README.md](README.md))
-and replaced only by that script; do not edit inside the marked sections.
-"""
 
 
 # ---- inputs -----------------------------------------------------------------------
@@ -108,68 +96,14 @@ def make_grid(radar, n=GRID_N):
 # ---- timing helpers -----------------------------------------------------------------
 
 
-def _timed(fn):
-    """(wall s, process CPU s, result) of fn() with block_until_ready."""
-    c0, t0 = time.process_time(), time.perf_counter()
-    out = jax.block_until_ready(fn())
-    return time.perf_counter() - t0, time.process_time() - c0, out
-
-
-def steady(fn, repeats):
-    """(min wall, CPU s of that repeat, all walls) over ``repeats`` calls."""
-    runs = [_timed(fn)[:2] for _ in range(repeats)]
-    wall, cpu = min(runs)
-    return wall, cpu, [w for w, _ in runs]
-
-
-def aot_compile_time(call):
-    """(lower s, compile s) of the jitted entry point behind ``call()``, or None.
-
-    ``simulate`` validates its inputs and then calls ``sarjax._simulate._run``
-    (an ``eqx.filter_jit``); the arguments are captured by swapping ``_run`` for a spy
-    for one call, then ``_run.lower(*args).compile()`` is timed. This reaches a private
-    name, so any failure falls back to "first call − steady".
-    """
-    try:
-        from sarjax import _simulate
-
-        real = _simulate._run
-        captured = {}
-
-        class _Captured(Exception):
-            pass
-
-        def spy(*args, **kwargs):
-            captured["args"], captured["kwargs"] = args, kwargs
-            raise _Captured
-
-        _simulate._run = spy
-        try:
-            call()
-        except _Captured:
-            pass
-        finally:
-            _simulate._run = real
-        if "args" not in captured:
-            return None
-        t0 = time.perf_counter()
-        lowered = real.lower(*captured["args"], **captured["kwargs"])
-        t1 = time.perf_counter()
-        lowered.compile()
-        t2 = time.perf_counter()
-        return t1 - t0, t2 - t1
-    except Exception as err:  # noqa: BLE001 - fall back, but say why
-        print(f"  (AOT compile timing unavailable: {type(err).__name__}: {err})")
-        return None
-
-
 def fft_baseline(repeats=20):
     rng = np.random.default_rng(1)
     a = (rng.normal(size=FFT_SHAPE) + 1j * rng.normal(size=FFT_SHAPE)).astype(np.complex64)
     a = jnp.asarray(a)
     fft2 = jax.jit(jnp.fft.fft2)
     jax.block_until_ready(fft2(a))
-    wall, cpu, _ = steady(lambda: fft2(a), repeats)
+    s = steady(lambda: fft2(a), repeats)
+    wall, cpu = s.min, s.cpu
     return wall, cpu
 
 
@@ -190,8 +124,9 @@ def run_case(name, radar, scene, motion, num_pulses, dtype_name, repeats, **chun
     # The AOT compile fills JAX's executable cache; clear it so that the first call
     # below traces and compiles again ("first − steady" is an independent estimate).
     jax.clear_caches()
-    first, _, data = _timed(call)
-    wall, cpu, walls = steady(call, repeats)
+    first, _, data = timed(call)
+    s = steady(call, repeats)
+    wall, cpu, walls = s.min, s.cpu, list(s.walls)
     assert data.shape == (num_pulses, NUM_RANGE) and data.dtype == dtype
     assert bool(jnp.all(jnp.isfinite(data)))
     evals = n_scat * num_pulses
@@ -227,8 +162,9 @@ def run_sweep(radar, scene, motion, num_pulses, repeats):
                 pulse_chunk=pc, scatterer_chunk=sc,
             ).data
 
-        first, _, _ = _timed(call)
-        wall, cpu, walls = steady(call, repeats)
+        first, _, _ = timed(call)
+        s = steady(call, repeats)
+        wall, cpu, walls = s.min, s.cpu, list(s.walls)
         evals = scene.num_scatterers * num_pulses
         rows.append(dict(label=label, pc=pc, sc=sc, first=first, steady=wall, cpu=cpu,
                          walls=walls, sp_per_s=evals / wall, sp_per_cpu_s=evals / cpu))
@@ -241,42 +177,6 @@ def run_sweep(radar, scene, motion, num_pulses, repeats):
 
 
 # ---- report -------------------------------------------------------------------------
-
-
-def machine_info():
-    model = "unknown"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    try:
-        affinity = len(os.sched_getaffinity(0))
-    except AttributeError:
-        affinity = os.cpu_count()
-    try:
-        commit = subprocess.run(
-            ["git", "-C", str(HERE.parent), "rev-parse", "--short", "HEAD"],
-            capture_output=True, text=True, check=True,
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "-C", str(HERE.parent), "status", "--porcelain", "--", "sarjax"],
-            capture_output=True, text=True, check=True,
-        ).stdout.strip()
-        commit += " (sarjax/ has uncommitted changes)" if dirty else ""
-    except (OSError, subprocess.CalledProcessError):
-        commit = "unknown"
-    import jaxlib
-
-    return dict(
-        cpu=model, cores=os.cpu_count(), usable_cores=affinity,
-        jax=jax.__version__, jaxlib=jaxlib.__version__, numpy=np.__version__,
-        python=platform.python_version(), backend=jax.default_backend(),
-        devices=", ".join(str(d) for d in jax.devices()), commit=commit,
-        date=datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
-    )
 
 
 def fmt(v, spec):
@@ -364,27 +264,7 @@ the smaller of the two, is the "steady / FFT" denominator.
 Fastest by wall time: **{best_wall['label']}** ({best_wall['steady']:.3f} s); by CPU time:
 **{best_cpu['label']}** ({best_cpu['cpu']:.3f} CPU-s).
 """
-    existing = path.read_text() if path.exists() else ""
-    path.write_text(merge_section(existing, text))
-    print(f"wrote {path} (section {START} … {END})")
-
-
-def merge_section(existing, section):
-    """RESULTS.md with this script's section (between START/END markers) replaced.
-
-    Other benchmarks keep their own marked sections in the same file; they are kept
-    as they are. Without our markers (a file from an older version of this script), the
-    unmarked text is dropped and the other marked sections are kept after ours.
-    """
-    block = f"{START}\n{section.strip()}\n{END}"
-    if START in existing and END in existing.split(START, 1)[1]:
-        before, rest = existing.split(START, 1)
-        after = rest.split(END, 1)[1]
-        return before + block + after
-    others = [m.group(0) for m in re.finditer(
-        r"<!-- ([\w.-]+):start -->.*?<!-- \1:end -->", existing, flags=re.S)
-        if m.group(1) != MARKER]
-    return "\n\n".join([RESULTS_HEADER.strip(), block, *others]) + "\n"
+    replace_section(MARKER, text, path)
 
 
 def main(argv=None):
@@ -406,9 +286,9 @@ def main(argv=None):
     num_pulses = args.pulses or (256 if args.quick else FULL_PULSES)
     sweep_pulses = args.sweep_pulses or (64 if args.quick else 512)
     write = not args.no_write and (not args.quick or args.write)
-    load_start = os.getloadavg()[0]
+    load_start = load_average()
 
-    info = machine_info()
+    info = machine()
     print(f"{info['cpu']}, {info['cores']} cores, JAX {info['jax']} ({info['backend']}), "
           f"load {load_start:.2f}")
     radar = sj.presets.airborne_xband()
@@ -441,7 +321,7 @@ def main(argv=None):
 
     print()
     print(table(rows))
-    load = (load_start, os.getloadavg()[0])
+    load = (load_start, load_average())
     if write:
         if sweep is None:
             print("(--no-sweep: RESULTS.md not written, it needs the sweep)")

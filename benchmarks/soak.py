@@ -38,12 +38,8 @@ from __future__ import annotations
 
 import argparse
 import collections
-import datetime
-import os
-import platform
 import re
 import resource
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -54,6 +50,9 @@ import numpy as np
 
 import sarjax as sj
 from sarjax._simulate import _METHODS
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import load_average, machine, replace_section  # noqa: E402
 
 NUM_PULSES, NUM_RANGE, NUM_SCATTERERS = 64, 128, 6
 MOTION = ("time_domain", "time_domain_nufft", "fourier_2d", "small_deviation",
@@ -180,34 +179,14 @@ def structures():
 # ---- report --------------------------------------------------------------------------
 
 
-def machine():
-    try:
-        cpu = next(line.split(":", 1)[1].strip()
-                   for line in Path("/proc/cpuinfo").read_text().splitlines()
-                   if line.startswith("model name"))
-    except (OSError, StopIteration):
-        cpu = platform.processor() or "unknown CPU"
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True, cwd=RESULTS.parent, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        commit = "unknown"
-    return (f"- CPU: {cpu}; {os.cpu_count()} logical cores\n"
-            f"- JAX {jax.__version__}, backend `{jax.default_backend()}`; NumPy "
-            f"{np.__version__}; Python {platform.python_version()}\n"
-            f"- sarjax commit {commit} (with the working tree's changes)\n"
-            f"- Date: {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
-
-
-def write_section(text):
-    start, end = "<!-- soak:start -->", "<!-- soak:end -->"
-    body = RESULTS.read_text() if RESULTS.exists() else "# Benchmark results\n"
-    block = f"{start}\n{text.rstrip()}\n{end}"
-    if start in body and end in body:
-        body = body[:body.index(start)] + block + body[body.index(end) + len(end):]
-    else:
-        body = body.rstrip() + "\n\n" + block + "\n"
-    RESULTS.write_text(body)
+def machine_lines():
+    """:func:`_common.machine` as the section's bullet lines."""
+    m = machine()
+    return (f"- CPU: {m['cpu']}; {m['cores']} logical cores\n"
+            f"- JAX {m['jax']}, backend `{m['backend']}`; NumPy {m['numpy']}; Python "
+            f"{m['python']}\n"
+            f"- sarjax commit {m['commit']}\n"
+            f"- Date: {m['date']}")
 
 
 def main(argv=None):
@@ -222,7 +201,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     t0 = time.perf_counter()
-    load_start = os.getloadavg()[0]
+    load_start = load_average()
     resettable = reset_peak()
 
     warm = list(structures())
@@ -284,8 +263,8 @@ def main(argv=None):
         "",
         "### Machine",
         "",
-        machine(),
-        f"- Load average (1 min) at start / end: {load_start:.2f} / {os.getloadavg()[0]:.2f}"
+        machine_lines(),
+        f"- Load average (1 min) at start / end: {load_start:.2f} / {load_average():.2f}"
         " (the machine is shared with other work: times are indicative only)",
         "",
         f"### Result: **{verdict}**",
@@ -309,7 +288,7 @@ def main(argv=None):
     text = "\n".join(lines)
     print(text)
     if not args.no_write:
-        write_section(text)
+        replace_section("soak", text, RESULTS)
     return 0 if ok else 1
 
 
