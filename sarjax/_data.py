@@ -1,9 +1,19 @@
-"""Acquisition grids and the raw-data / image containers."""
+"""Acquisition grids, the raw-data / image containers and their ``xarray`` form.
+
+:func:`to_xarray` / :func:`from_xarray` convert a product (and the run's parameters) to
+and from an ``xarray.Dataset``; :mod:`sarjax.io` writes that dataset to a file.
+"""
 
 from __future__ import annotations
 
+import json
+
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
+
+from .radar import radar_attributes
+from .scene import PointTargets, ReflectivityGrid
 
 
 class Acquisition(eqx.Module):
@@ -47,16 +57,12 @@ class _Gridded(eqx.Module):
 
     def to_xarray(self, *, radar=None, scene=None, motion=None, attrs=None):
         """This product (and the run's parameters, when given) as an ``xarray.Dataset``
-        with dims ``("azimuth", "range")`` in metres (see :mod:`sarjax.io`)."""
-        from .io import to_xarray
-
+        with dims ``("azimuth", "range")`` in metres (see :func:`to_xarray`)."""
         return to_xarray(self, radar=radar, scene=scene, motion=motion, attrs=attrs)
 
     @classmethod
     def from_xarray(cls, dataset):
-        """Inverse of :meth:`to_xarray` (see :func:`sarjax.io.from_xarray`)."""
-        from .io import from_xarray
-
+        """Inverse of :meth:`to_xarray` (see :func:`from_xarray`)."""
         product = from_xarray(dataset)
         if not isinstance(product, cls):
             raise ValueError(f"the dataset holds {type(product).__name__}, not {cls.__name__}")
@@ -82,3 +88,118 @@ class Image(_Gridded):
         azimuth: (azimuth,) along-track coordinate x [m].
         range: (range,) closest-approach slant range r [m].
     """
+
+
+# ---- products <-> xarray ----------------------------------------------------------------
+
+_PRODUCTS = {"RawData": RawData, "Image": Image}
+_VARIABLE = {"RawData": "raw", "Image": "image"}
+
+
+def _xr():
+    try:
+        import xarray
+    except ImportError:
+        raise ImportError("xarray is needed for sarjax.io and the xarray form of products: "
+                          "pip install xarray h5netcdf") from None
+    return xarray
+
+
+def to_xarray(product, *, radar=None, scene=None, motion=None, attrs=None):
+    """A :class:`~sarjax.RawData` or :class:`~sarjax.Image` as an ``xarray.Dataset``.
+
+    Args:
+        product: the raw data or image.
+        radar, scene, motion: the run's parameters (stored when given).
+        attrs: further attributes (str, numbers, or anything JSON-serialisable).
+
+    Returns:
+        Dataset with the complex variable ``raw`` / ``image`` on
+        ``("azimuth", "range")`` and the parameters (see :mod:`sarjax.io`).
+    """
+    xr = _xr()
+    kind = type(product).__name__
+    if kind not in _PRODUCTS:
+        raise ValueError(f"product of type {kind} is neither RawData nor Image")
+    data = np.asarray(product.data)
+    azimuth = np.asarray(product.azimuth, float)
+    range_ = np.asarray(product.range, float)
+    name = _VARIABLE[kind]
+    coords = {
+        "azimuth": ("azimuth", azimuth, {"units": "m", "long_name": (
+            "pulse position x' along track" if kind == "RawData" else "along-track x")}),
+        "range": ("range", range_, {"units": "m", "long_name": (
+            "range-sample coordinate r' = c t / 2" if kind == "RawData"
+            else "closest-approach slant range r")}),
+    }
+    variables = {name: (("azimuth", "range"), data, {
+        "long_name": "complex baseband echoes h(x', r')" if kind == "RawData"
+        else "complex focused image"})}
+    if motion is not None:
+        n = data.shape[0]
+        for comp, unit in (("horizontal", "m"), ("vertical", "m"), ("pointing", "rad")):
+            value = getattr(motion, comp)
+            if value is not None:
+                variables[comp] = ("azimuth", np.broadcast_to(np.asarray(value, float), (n,)),
+                                   {"units": unit})
+    if scene is not None:
+        variables.update(_scene_variables(scene))
+    all_attrs = {"sarjax_product": kind, "method": getattr(product, "method", "") or "",
+                 "conventions": "arrays (azimuth, range); metres, seconds, radians, hertz"}
+    if radar is not None:
+        all_attrs.update({f"radar_{k}": v for k, v in radar_attributes(radar).items()})
+    for key, value in (attrs or {}).items():
+        all_attrs[key] = _attr(value)
+    return xr.Dataset(variables, coords=coords, attrs=all_attrs)
+
+
+def _attr(value):
+    if isinstance(value, (str, int, float, np.integer, np.floating)) and not isinstance(
+            value, bool):
+        return value
+    return json.dumps(value)
+
+
+def _scene_variables(scene):
+    if isinstance(scene, PointTargets):
+        out = {}
+        for field, unit in (("azimuth", "m"), ("range", "m"), ("reflectivity", "1"),
+                            ("height", "m"), ("velocity_range", "m/s"),
+                            ("velocity_azimuth", "m/s")):
+            out[f"scatterer_{field}"] = ("scatterer", np.asarray(getattr(scene, field)),
+                                         {"units": unit})
+        return out
+    if isinstance(scene, ReflectivityGrid):
+        return {
+            "scene_reflectivity": (("scene_azimuth", "scene_range"),
+                                   np.asarray(scene.reflectivity), {"units": "1"}),
+            "scene_height": (("scene_azimuth", "scene_range"), np.asarray(scene.height),
+                             {"units": "m"}),
+            "scene_azimuth": ("scene_azimuth", np.asarray(scene.azimuth), {"units": "m"}),
+            "scene_range": ("scene_range", np.asarray(scene.range), {"units": "m"}),
+        }
+    raise ValueError(f"scene of type {type(scene).__name__} is not PointTargets or "
+                     "ReflectivityGrid")
+
+
+def from_xarray(dataset):
+    """The :class:`~sarjax.RawData` or :class:`~sarjax.Image` held by a dataset made by
+    :func:`to_xarray` (or read by :func:`sarjax.io.load`); also accepts a bare complex
+    DataArray on ``("azimuth", "range")`` (taken as raw data)."""
+    xr = _xr()
+    if isinstance(dataset, xr.DataArray):
+        array, kind, method = dataset, "RawData", ""
+    else:
+        kind = dataset.attrs.get("sarjax_product")
+        if kind not in _PRODUCTS:
+            raise ValueError(f"dataset attribute sarjax_product={kind!r} is neither RawData "
+                             "nor Image")
+        if _VARIABLE[kind] not in dataset:
+            raise ValueError(f"the {kind} file holds no {_VARIABLE[kind]!r} variable")
+        array, method = dataset[_VARIABLE[kind]], str(dataset.attrs.get("method", ""))
+    if array.dims != ("azimuth", "range"):
+        raise ValueError(f"dims {array.dims} must be ('azimuth', 'range')")
+    cls = _PRODUCTS[kind]
+    fields = dict(data=np.asarray(array.values), azimuth=np.asarray(array["azimuth"].values),
+                  range=np.asarray(array["range"].values))
+    return cls(**fields, method=method) if kind == "RawData" else cls(**fields)

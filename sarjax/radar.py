@@ -3,14 +3,18 @@
 Every physical number is an array leaf, so changing a value between calls never
 recompiles and every value can be differentiated. Only the acquisition grid size
 (number of pulses and range samples) is structure.
+
+:func:`radar_attributes` / :func:`radar_from_attributes` turn a radar into plain numbers
+and strings and back (the attributes of sarjax files and the parameters of exports).
 """
 
 from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
-from .antenna import AbstractPattern, Sinc2Pattern
+from .antenna import AbstractPattern, GaussianPattern, Sinc2Pattern
 from .constants import SPEED_OF_LIGHT
 
 
@@ -115,3 +119,54 @@ class Radar(eqx.Module):
         import dataclasses
 
         return dataclasses.replace(self, **changes)
+
+
+# ---- radar <-> attributes -------------------------------------------------------------
+
+_RADAR_SCALARS = ("carrier_frequency", "bandwidth", "chirp_duration", "sampling_rate", "prf",
+                  "velocity", "height", "antenna_length", "reference_range", "near_range",
+                  "squint")
+
+
+def radar_attributes(radar: Radar) -> dict:
+    """Every field of ``radar`` as plain numbers / strings (SI units)."""
+    out = {name: float(np.asarray(getattr(radar, name))) for name in _RADAR_SCALARS}
+    out["num_pulses"] = int(radar.num_pulses)
+    out["num_range"] = int(radar.num_range)
+    pattern = radar.pattern
+    out["pattern"] = type(pattern).__name__
+    if isinstance(pattern, GaussianPattern):
+        out["pattern_width"] = float(np.asarray(pattern.width))
+    elif not isinstance(pattern, Sinc2Pattern):
+        raise ValueError(f"pattern {type(pattern).__name__} cannot be written to a file: "
+                         "only Sinc2Pattern and GaussianPattern are known")
+    return out
+
+
+def radar_from_attributes(attrs: dict, prefix: str = "") -> Radar:
+    """Inverse of :func:`radar_attributes` (keys optionally prefixed)."""
+    get = lambda k: attrs[prefix + k]
+
+    def number(name, kind):
+        try:
+            value = get(name)
+        except KeyError:
+            raise ValueError(f"radar parameter {name!r} missing from the file") from None
+        try:
+            return kind(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"radar parameter {name}={value!r} in the file is not a "
+                             f"{kind.__name__}") from None
+
+    kwargs = {name: number(name, float) for name in _RADAR_SCALARS}
+    kwargs["num_pulses"] = number("num_pulses", int)
+    kwargs["num_range"] = number("num_range", int)
+    try:
+        pattern = str(get("pattern"))
+    except KeyError:
+        raise ValueError("radar parameter 'pattern' missing from the file") from None
+    if pattern == "GaussianPattern":
+        kwargs["pattern"] = GaussianPattern(width=number("pattern_width", float))
+    elif pattern != "Sinc2Pattern":
+        raise ValueError(f"unknown antenna pattern {pattern!r} in the file")
+    return Radar(**kwargs)

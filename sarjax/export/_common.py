@@ -1,19 +1,18 @@
 """What the CPHD and CRSD writers share: the acquisition geometry of a sarjax run in ECF,
-the parameters block, safe file writing."""
+the parameters block."""
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
-import tempfile
 import warnings
-from pathlib import Path
 
 import numpy as np
 
+from .._files import atomic_write as atomic_write  # re-exported from its former home
 from ..constants import SPEED_OF_LIGHT
 from ..motion import Motion
+from ..radar import radar_attributes
 from ._frame import GeoReference, LocalFrame
 
 TRACKS = ("true", "nominal")
@@ -120,8 +119,6 @@ def collection(radar, raw, motion: Motion | None, track: str,
 
 def parameters(radar, raw, track: str, extra: dict | None = None) -> dict[str, str]:
     """Every number of the run as text (for the files' parameter lists)."""
-    from ..io import radar_attributes
-
     out = {f"radar.{k}": str(v) for k, v in radar_attributes(radar).items()}
     out.update({
         "raw.method": raw.method or "",
@@ -155,31 +152,6 @@ def check_grid(radar, raw):
         if axis.size > 1 and not np.allclose(np.diff(axis), step, rtol=1e-9, atol=1e-9 * step):
             raise ValueError(f"raw.{name} spacing {np.diff(axis)[0]!r} m differs from the "
                              f"radar's {step!r} m")
-
-
-def atomic_write(path, write, *, overwrite: bool = False):
-    """Write through ``write(tmp_path)`` into a temporary file beside ``path``, then rename.
-
-    A crash leaves no half-written file. Raises FileExistsError when ``path`` exists
-    and ``overwrite`` is False.
-    """
-    path = Path(path)
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists (pass overwrite=True / --force to replace it)")
-    if not path.parent.exists():
-        raise FileNotFoundError(f"folder {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def scene_area(radar, raw, geo: Collection, reference: GeoReference,

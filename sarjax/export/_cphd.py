@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 
+from .._files import atomic_write
 from .._numerics.interpolation import next_fast_len
 from ..constants import SPEED_OF_LIGHT
 from ..processing._range_compression import matched_filter
 from ._common import (
-    atomic_write,
     check_grid,
     collection,
     parameters,

@@ -6,9 +6,9 @@ import datetime as _dt
 
 import numpy as np
 
+from .._files import atomic_write
 from ..constants import SPEED_OF_LIGHT
 from ._common import (
-    atomic_write,
     check_grid,
     collection,
     parameters,
