@@ -7,10 +7,10 @@ Every call estimates its peak memory before any work, from the array sizes and t
 
 ``output`` the result (all realizations of a batch), ``inputs`` the scene and motion arrays
 and ``workspace`` the intermediates of the ``batch_chunk`` realizations evaluated together
-(the simulator's chunk sizes set it: pulses × scatterers × range samples for the exact
-model, the padded (ξ, η) grid for the Fourier methods). The per-method workspaces are upper
-bounds of what XLA allocates (``Compiled.memory_analysis()``; tests/test_memory.py checks
-them within a factor 1–4).
+(each simulator's ``memory()`` declares it: pulses × scatterers × range samples for the
+exact model, the padded (ξ, η) grid for the Fourier methods). The per-method workspaces are
+upper bounds of what XLA allocates (``Compiled.memory_analysis()``; tests/test_memory.py
+checks them within a factor 1–4).
 
 The limit is, in order: the ``memory_limit=`` argument, the ``SARJAX_MEMORY_LIMIT``
 environment variable (bytes, ``"512MiB"``, ``"2GB"`` …), or :data:`DEFAULT_FRACTION` of the
@@ -172,137 +172,13 @@ def refuse(what: str, estimate: Estimate, limit: int, *, chunked: bool = True):
     )
 
 
-# --------------------------------------------------------------------------------------
-# per-method workspaces (one realization) [bytes]
-# --------------------------------------------------------------------------------------
-
-_C128 = 16  # the Fourier engines work in complex128 whatever the output dtype
+_C128 = 16  # the processors work in complex128 whatever the output dtype
 
 
 def scene_bytes(scene) -> int:
     """Bytes of a scene's arrays."""
     return int(sum(np.size(leaf) * np.dtype(leaf.dtype).itemsize
                    for leaf in jax.tree_util.tree_leaves(scene) if hasattr(leaf, "dtype")))
-
-
-def _range_lines(scene) -> int:
-    """Range lines of the Fourier engines: one per point scatterer or per grid column."""
-    shape = np.shape(scene.reflectivity)
-    return int(shape[-1]) if len(np.shape(scene.range)) == 1 and len(shape) == 2 else int(
-        np.size(scene.range))
-
-
-def time_domain_workspace(num_range, pulse_chunk, scatterer_chunk, num_scatterers, dtype):
-    """Exact model: per pulse chunk a (pulses, scatterers, range) complex chirp table
-    (its real delay and phase fused into it; XLA holds ≈ 1 table, counted twice), the
-    padded scatterer arrays and the accumulators."""
-    item = np.dtype(dtype).itemsize
-    table = pulse_chunk * scatterer_chunk * num_range * item
-    padded = (-(-num_scatterers // scatterer_chunk)) * scatterer_chunk * 6 * 8
-    return int(2 * table + padded + 2 * pulse_chunk * num_range * item)
-
-
-def _fourier_grid(simulator, acquisition):
-    """(n_x, n_r): the padded azimuth and range FFT sizes of a Fourier-domain simulator."""
-    pad = getattr(simulator, "azimuth_pad", None)
-    pad = acquisition.num_pulses if pad is None else int(pad)
-    n_r = getattr(simulator, "range_fft_size", None)
-    n_r = next_fast_len(2 * acquisition.num_range) if n_r is None else int(n_r)
-    return next_fast_len(acquisition.num_pulses + 2 * pad), n_r
-
-
-# Fourier-domain workspaces [complex128 elements]: ``grids`` (n_x, n_r) arrays, ``lines``
-# (n_x,) spectra per range line (line sets, grid DTFTs), (n_r,) and (n_x,) columns per
-# pulse (the (η, x') accumulators, per-pulse factors) and, for column-chunked engines,
-# (n_x, chunk) blocks. Least-squares fits to XLA's memory analysis of each engine over
-# grids and point scenes (N_x 256–2048, N_r 256–1024, 3–400 range lines), scaled by
-# 1.2–1.5 into upper bounds (tests/test_memory.py checks them).
-_GRID_FACTORS = {
-    # class name: (grids, lines, pulses·n_r, pulses·n_x, column blocks)
-    "Fourier2D": (0.15, 3.5, 3.4, 0.13, 0.0),
-    "SmallDeviation": (0.4, 3.0, 2.9, 0.15, 0.0),
-    "ModerateDeviation": (0.75, 16.5, 1.5, 0.2, 0.0),
-    "HighSpeed": (0.0, 3.0, 0.0, 0.0, 14.0),
-    "ChirpScaling": (2.4, 0.0, 0.1, 0.0, 0.0),
-}
-_GENERIC_FACTORS = (4.0, 16.0, 3.0, 0.5, 0.0)
-
-
-def fourier_workspace(simulator, scene, acquisition):
-    """FFT-grid methods: ``16 (a n_x n_r + b n_lines n_x + c N_x n_r + d N_x n_x
-    + e n_x min(chunk, n_r))`` [bytes], the factors per method (``_GRID_FACTORS``)."""
-    n_x, n_r = _fourier_grid(simulator, acquisition)
-    factors = _GENERIC_FACTORS
-    for cls in type(simulator).__mro__:
-        if cls.__name__ in _GRID_FACTORS:
-            factors = _GRID_FACTORS[cls.__name__]
-            break
-    grids, lines, per_range, per_azimuth, blocks = factors
-    n = acquisition.num_pulses
-    chunk = min(int(getattr(simulator, "column_chunk", n_r) or n_r), n_r)
-    return int(_C128 * (grids * n_x * n_r + lines * _range_lines(scene) * n_x
-                        + per_range * n * n_r + per_azimuth * n * n_x + blocks * n_x * chunk))
-
-
-def nufft_workspace(simulator, num_pulses, num_range, num_scatterers, dtype):
-    """Exact model by non-uniform FFT: ≈ 20 oversampled-grid-sized tables (chirp
-    spectrum, deconvolution, indices), and per pulse in flight (``loops`` concurrent
-    loops of ``chunk()`` pulses) half a grid and the scatterers' geometry and spread values;
-    ``engine="direct"`` adds its (scatterer, band · n_r) phasor table per pulse of a chunk
-    (fitted to XLA's memory analysis, with a margin)."""
-    n_r, bands, grid, width = simulator.sizes(num_range)
-    item = np.dtype(dtype).itemsize
-    chunk = simulator.chunk(num_pulses, num_range, num_scatterers, dtype)
-    in_flight = max(1, min(simulator.loops, num_pulses)) * chunk
-    per_pulse = grid * _C128 // 2 + num_scatterers * (6 * 8 + width * item)
-    workspace = 20 * grid * _C128 + in_flight * per_pulse
-    if simulator.engine == "direct":
-        workspace += 1.2 * chunk * num_scatterers * bands * n_r * _C128
-    return int(workspace)
-
-
-def simulation_workspace(simulator, radar, scene, acquisition, dtype) -> int:
-    """Workspace of one realization [bytes] for any simulator.
-
-    A simulator may provide its own ``peak_workspace(radar, scene, acquisition, dtype)``
-    (bytes). Otherwise: the exact model from its chunks, the non-uniform-FFT model from
-    its chunk rule, simulators with padded FFT grids (``azimuth_pad`` /
-    ``range_fft_size``) the grid estimate, anything else eight complex128 copies of the
-    output.
-    """
-    from .simulators import TimeDomain, TimeDomainNUFFT
-
-    own = getattr(simulator, "peak_workspace", None)
-    if callable(own):
-        return int(own(radar, scene, acquisition, dtype))
-    n, n_r, n_s = acquisition.num_pulses, acquisition.num_range, scene.num_scatterers
-    if isinstance(simulator, TimeDomain):
-        pulse, scat = simulator.chunks(n, n_r, n_s, dtype)
-        return time_domain_workspace(n_r, pulse, scat, n_s, dtype)
-    if isinstance(simulator, TimeDomainNUFFT):
-        return nufft_workspace(simulator, n, n_r, n_s, dtype)
-    if hasattr(simulator, "range_fft_size") or hasattr(simulator, "azimuth_pad"):
-        return fourier_workspace(simulator, scene, acquisition)
-    return int(8 * _C128 * n * n_r)
-
-
-def simulation_estimate(simulator, radar, scene, motion_bytes, acquisition, dtype,
-                        batch_size=None, batch_chunk=None) -> Estimate:
-    """Estimated peak memory of :func:`sarjax.simulate` (see the module docstring).
-
-    Args:
-        simulator: the prepared simulator.
-        motion_bytes: bytes of the motion arrays.
-        batch_size: realizations B (None: unbatched).
-        batch_chunk: realizations evaluated together (None: all).
-    """
-    count = 1 if batch_size is None else batch_size
-    together = count if batch_chunk is None else min(batch_chunk, count)
-    item = np.dtype(dtype).itemsize
-    output = count * acquisition.num_pulses * acquisition.num_range * item
-    inputs = scene_bytes(scene) + int(motion_bytes)
-    workspace = together * simulation_workspace(simulator, radar, scene, acquisition, dtype)
-    return Estimate(int(output), int(inputs), int(workspace))
 
 
 def focus_estimate(method, num_pulses, num_range, n_fft, *, image_shape=None,

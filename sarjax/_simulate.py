@@ -1,77 +1,28 @@
-"""The one jitted simulation entry point."""
+"""The one jitted simulation entry point: resolve the method in the registry, check the
+inputs and the method's budgets, plan the call (the simulator's plan, memory, devices),
+run the kernel under one ``jit`` and wrap the result in :class:`~sarjax.RawData`."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.sharding import Mesh, PartitionSpec
 
-from . import _memory, _validate
+from . import _sharding, _validate
 from ._data import Acquisition, RawData
+from ._memory_plan import MemoryPlan, memory_plan
 from .motion import Motion
 from .scene import PointTargets, ReflectivityGrid
-from .simulators import (
-    AbstractSimulator,
-    ChirpScaling,
-    HighSpeed,
-    TimeDomain,
-    TimeDomainNUFFT,
-)
-from .simulators._squint import SquintFourier2D, SquintModerateDeviation, SquintSmallDeviation
-from .validity import FASTEST_FIRST, choose_method
-
-_METHODS = {
-    "time_domain": TimeDomain,
-    "time_domain_nufft": TimeDomainNUFFT,
-    # at any squint (broadside: the broadside classes, unchanged)
-    "fourier_2d": SquintFourier2D,
-    "small_deviation": SquintSmallDeviation,
-    "algorithm_a": SquintSmallDeviation,
-    "moderate_deviation": SquintModerateDeviation,
-    "algorithm_b": SquintModerateDeviation,
-    "high_speed": HighSpeed,
-    "chirp_scaling": ChirpScaling,
-}
-
-
-def _resolve_method(method, options):
-    if isinstance(method, AbstractSimulator):
-        if options:
-            raise ValueError(f"options {sorted(options)} given with a simulator instance")
-        return method
-    try:
-        cls = _METHODS[method]
-    except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown method={method!r}; choose one of {sorted(_METHODS)} or pass a simulator"
-        ) from None
-    try:
-        return cls(**options)
-    except TypeError:
-        known = sorted(f for f in cls.__dataclass_fields__ if not f.startswith("_"))
-        raise ValueError(
-            f"unknown option(s) {sorted(options)} for method={method!r}; known: {known}"
-        ) from None
-
-
-# Simulators whose pulses are independent: a block of pulses is simulated on its own, as
-# a shorter acquisition centred on the block, so pulses can be split across devices. (The
-# Fourier-domain simulators transform along the whole aperture: they need every pulse.)
-_PULSE_LOCAL = (TimeDomain, TimeDomainNUFFT)
-
-
-def _is_pulse_local(simulator) -> bool:
-    return isinstance(simulator, _PULSE_LOCAL) or bool(getattr(simulator, "pulse_local", False))
+from .simulators import _registry
+from .validity import choose_method
 
 
 @dataclasses.dataclass(frozen=True)
-class _Plan:
+class CallPlan:
     """How one call runs (static: part of the jit cache key).
 
     Attributes:
@@ -88,59 +39,8 @@ class _Plan:
     pulse_shards: int = 1
 
 
-_SINGLE = _Plan()
-
-
-def _realizations(simulator, radar, scene, motion, acquisition, dtype, batch_size,
-                  batch_chunk):
-    """One realization, or a batch: the simulator vmapped over the motion's leading axis,
-    ``batch_chunk`` realizations at a time (sequentially) when fewer than all."""
-
-    def one(realization):
-        return simulator(radar, scene, realization, acquisition, dtype)
-
-    if batch_size is None:
-        return one(motion)
-    if batch_chunk is None or batch_chunk >= batch_size:
-        return jax.vmap(one)(motion)
-    return jax.lax.map(one, motion, batch_size=batch_chunk)
-
-
-def _sharded(simulator, radar, scene, motion, acquisition, dtype, plan):
-    """The call split over a (batch, pulse) device mesh with ``shard_map``: realizations
-    over ``batch``, blocks of pulses (pulse-local simulators) over ``pulse``. Pulses and
-    realizations are padded (edge values) to whole blocks and cut off afterwards."""
-    n_batch, n_pulse = plan.batch_shards, plan.pulse_shards
-    mesh = Mesh(np.asarray(plan.devices, dtype=object).reshape(n_batch, n_pulse),
-                ("batch", "pulse"))
-    num_pulses = acquisition.num_pulses
-    block_pulses = -(-num_pulses // n_pulse)
-    batched = plan.batch_size is not None
-    block_batch = -(-plan.batch_size // n_batch) if batched else None
-
-    def pad(values):
-        widths = [(0, 0)] * values.ndim
-        widths[-1] = (0, block_pulses * n_pulse - num_pulses)
-        if batched:
-            widths[0] = (0, block_batch * n_batch - plan.batch_size)
-        return jnp.pad(values, widths, mode="edge")
-
-    motion = jax.tree_util.tree_map(pad, motion)
-    # x' of the middle pulse of block s (pulses s·n … s·n + n − 1 of the acquisition)
-    offsets = jnp.arange(n_pulse) * block_pulses + (block_pulses - 1) / 2 - (num_pulses - 1) / 2
-    centres = acquisition.azimuth_center + offsets * radar.azimuth_spacing
-
-    def local(motion_block, centre):
-        block = Acquisition(num_pulses=block_pulses, num_range=acquisition.num_range,
-                            near_range=acquisition.near_range, azimuth_center=centre[0])
-        return _realizations(simulator, radar, scene, motion_block, block, dtype,
-                             block_batch, plan.batch_chunk)
-
-    spec = PartitionSpec("batch", "pulse") if batched else PartitionSpec("pulse")
-    # check_vma=False: the simulators' loops start from unvarying carries (zeros)
-    data = jax.shard_map(local, mesh=mesh, in_specs=(spec, PartitionSpec("pulse")),
-                         out_specs=spec, check_vma=False)(motion, centres)
-    return data[: plan.batch_size, :num_pulses] if batched else data[:num_pulses]
+_SINGLE = CallPlan()
+_Plan = CallPlan  # the earlier private name
 
 
 def _broadcast_batch(motion, batch_size, num_pulses):
@@ -150,14 +50,15 @@ def _broadcast_batch(motion, batch_size, num_pulses):
 
 
 @eqx.filter_jit
-def _run(simulator, radar, scene, motion, acquisition, dtype, name, plan=_SINGLE):
-    if plan.batch_size is not None:
-        motion = _broadcast_batch(motion, plan.batch_size, acquisition.num_pulses)
-    if len(plan.devices) > 1:
-        data = _sharded(simulator, radar, scene, motion, acquisition, dtype, plan)
+def _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call=_SINGLE):
+    if call.batch_size is not None:
+        motion = _broadcast_batch(motion, call.batch_size, acquisition.num_pulses)
+    if len(call.devices) > 1:
+        data = _sharding.sharded(simulator, plan, radar, scene, motion, acquisition, dtype,
+                                 call)
     else:
-        data = _realizations(simulator, radar, scene, motion, acquisition, dtype,
-                             plan.batch_size, plan.batch_chunk)
+        data = _sharding.realizations(simulator, plan, radar, scene, motion, acquisition,
+                                      dtype, call.batch_size, call.batch_chunk)
     return RawData(
         data=data,
         azimuth=acquisition.pulse_azimuths(radar),
@@ -166,169 +67,29 @@ def _run(simulator, radar, scene, motion, acquisition, dtype, name, plan=_SINGLE
     )
 
 
-# --------------------------------------------------------------------------------------
-# devices and memory
-# --------------------------------------------------------------------------------------
-
-
-def _resolve_devices(devices) -> tuple:
-    """``devices=``: None (every device of the default backend), a count n (the first n)
-    or a sequence of ``jax.Device``."""
-    available = jax.devices()
-    if devices is None:
-        return tuple(available)
-    if isinstance(devices, (int, np.integer)) and not isinstance(devices, bool):
-        if not 1 <= devices <= len(available):
-            raise ValueError(
-                f"devices={devices} must be between 1 and the {len(available)} available "
-                f"device(s) {available}"
-            )
-        return tuple(available[: int(devices)])
-    given = devices
-    if isinstance(devices, jax.Device):
-        devices = (devices,)
-    if isinstance(devices, (str, bytes)):
-        devices = (devices,)
-    try:
-        devices = tuple(devices)
-    except TypeError:
-        raise ValueError(
-            f"devices={given!r} must be None, a number of devices or a sequence of "
-            "jax.Device"
-        ) from None
-    bad = [d for d in devices if not isinstance(d, jax.Device)]
-    if not devices or bad:
-        raise ValueError(
-            f"devices={given!r} must be a non-empty sequence of jax.Device "
-            f"(not {bad[:3]})"
-        )
-    if len(set(devices)) != len(devices):
-        raise ValueError(f"devices={given!r} lists a device twice")
-    return devices
-
-
-def _shards(num_devices, batch_size, num_pulses, pulse_local):
-    """(batch shards, pulse shards): realizations first, then pulse blocks (pulse-local
-    simulators) on the devices left over."""
-    n_batch = 1
-    if batch_size is not None:
-        per_device = -(-batch_size // min(num_devices, batch_size))
-        n_batch = -(-batch_size // per_device)
-    n_pulse = min(num_devices // n_batch, num_pulses) if pulse_local else 1
-    return n_batch, max(n_pulse, 1)
-
-
-def _smaller_chunks(simulator, acquisition, scene, dtype):
-    """Simulators with the same output and smaller chunks, larger first."""
-    n, n_r, n_s = acquisition.num_pulses, acquisition.num_range, scene.num_scatterers
-    if isinstance(simulator, TimeDomain):
-        pulse, scat = simulator.chunks(n, n_r, n_s, dtype)
-        while pulse > 1:  # fewer pulses at a time first: the scatterer chunk sets the speed
-            pulse //= 2
-            yield dataclasses.replace(simulator, pulse_chunk=pulse, scatterer_chunk=scat)
-        while scat > 1:
-            scat //= 2
-            yield dataclasses.replace(simulator, pulse_chunk=1, scatterer_chunk=scat)
-    elif isinstance(simulator, TimeDomainNUFFT):
-        pulse = simulator.chunk(n, n_r, n_s, dtype)
-        while pulse > 1:
-            pulse //= 2
-            yield dataclasses.replace(simulator, pulse_chunk=pulse)
-        if simulator.loops > 1:
-            yield dataclasses.replace(simulator, pulse_chunk=1, loops=1)
-
-
-class MemoryPlan(NamedTuple):
-    """How :func:`sarjax.simulate` runs a call within its memory limit.
-
-    Attributes:
-        estimate: the estimated peak memory (:class:`sarjax._memory.Estimate`, bytes;
-            ``.total``, ``.output``, ``.inputs``, ``.workspace``).
-        limit: the memory limit [bytes].
-        batch_size: realizations B (None: unbatched).
-        batch_chunk: realizations evaluated together on a device (None: all).
-        simulator: the simulator as it runs (its chunk options set).
-        devices: the devices the call is split over (empty: one device);
-            ``batch_shards`` × ``pulse_shards`` their mesh.
-    """
-
-    estimate: _memory.Estimate
-    limit: int
-    batch_size: int | None
-    batch_chunk: int | None
-    simulator: AbstractSimulator
-    devices: tuple
-    batch_shards: int
-    pulse_shards: int
-
-
-def _memory_plan(simulator, radar, scene, motion_bytes, acquisition, dtype, batch_size,
-                 devices, memory_limit, name) -> MemoryPlan:
-    """Chunks and shards within the memory limit (see :mod:`sarjax._memory`); raises
-    :class:`~sarjax._memory.MemoryLimitError` when even the smallest chunks exceed it."""
-    limit = _memory.memory_limit(memory_limit, devices)
-    n_batch, n_pulse = _shards(len(devices), batch_size, acquisition.num_pulses,
-                               _is_pulse_local(simulator))
-    used = n_batch * n_pulse
-    block_pulses = -(-acquisition.num_pulses // n_pulse)
-    block = dataclasses.replace(acquisition, num_pulses=block_pulses)
-    block_batch = None if batch_size is None else -(-batch_size // n_batch)
-    item = jnp.dtype(dtype).itemsize
-    output = ((block_batch or 1) * n_batch * block_pulses * n_pulse
-              * acquisition.num_range * item)
-    inputs = used * _memory.scene_bytes(scene) + motion_bytes
-
-    def estimate(sim, batch_chunk):
-        together = 1 if block_batch is None else min(batch_chunk or block_batch, block_batch)
-        workspace = _memory.simulation_workspace(sim, radar, scene, block, dtype)
-        return _memory.Estimate(int(output), int(inputs), int(used * together * workspace))
-
-    def plan(sim, batch_chunk, est):
-        return MemoryPlan(
-            estimate=est, limit=limit, batch_size=batch_size, batch_chunk=batch_chunk,
-            simulator=sim, devices=tuple(devices[:used]) if used > 1 else (),
-            batch_shards=n_batch, pulse_shards=n_pulse,
-        )
-
-    est = estimate(simulator, None)
-    if est.total <= limit:
-        return plan(simulator, None, est)
-    chunk = None
-    if block_batch is not None:  # fewer realizations at a time
-        chunk = block_batch
-        while chunk > 1:
-            chunk = max(1, chunk // 2)
-            est = estimate(simulator, chunk)
-            if est.total <= limit:
-                return plan(simulator, chunk, est)
-    for smaller in _smaller_chunks(simulator, block, scene, dtype):
-        est = estimate(smaller, chunk)
-        if est.total <= limit:
-            return plan(smaller, chunk, est)
-    _memory.refuse(f"simulate(method={name!r})", est, limit)
-
-
-# --------------------------------------------------------------------------------------
-# the public entry point
-# --------------------------------------------------------------------------------------
+def _realization(motion, b):
+    """Realization b of a batched motion."""
+    return Motion(**{
+        name: (None if v is None else (v[b] if v.ndim == 2 else v))
+        for name, v in (("horizontal", motion.horizontal), ("vertical", motion.vertical),
+                        ("pointing", motion.pointing))
+    })
 
 
 def _choose_batched_method(radar, scene, motion, batch_size, **kwargs):
     """``method="auto"`` for a batch: the most exact of the methods chosen for each
-    realization."""
+    realization (the one chosen for the realization that needs the most)."""
     if batch_size is None:
         return choose_method(radar, scene, motion, **kwargs)[0]
-    order = {name: i for i, name in enumerate(FASTEST_FIRST)}
-    chosen = FASTEST_FIRST[0]
+    chosen, rank = None, -1
+    order = _registry.method_names(aliases=False)
     for b in range(batch_size):
-        realization = Motion(**{
-            name: (None if v is None else (v[b] if v.ndim == 2 else v))
-            for name, v in (("horizontal", motion.horizontal), ("vertical", motion.vertical),
-                            ("pointing", motion.pointing))
-        })
-        method = choose_method(radar, scene, realization, **kwargs)[0]
-        if order.get(method, len(order)) > order.get(chosen, len(order)):
-            chosen = method
+        method = choose_method(radar, scene, _realization(motion, b), **kwargs)[0]
+        cls = _registry.simulator_class(method)
+        # the exact models after the approximate ones, each in registry order
+        this = (cls.exact, order.index(method))
+        if chosen is None or this > rank:
+            chosen, rank = method, this
     return chosen
 
 
@@ -358,25 +119,27 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     )
     _validate.require_positive(acquisition, ["near_range"], "acquisition")
     _validate.check_finite_scalar(azimuth_center, "azimuth_center")
-    devices = _resolve_devices(devices)
-    if method == "auto":
+    devices = _sharding.resolve_devices(devices)
+    if isinstance(method, np.str_):
+        method = str(method)
+    if isinstance(method, str) and method == _registry.AUTO:
         method = _choose_batched_method(
             radar, scene, motion, batch_size, num_pulses=acquisition.num_pulses,
-            azimuth_center=float(azimuth_center),
-            pointing_order=options.get("pointing_order", 2),
+            num_range=acquisition.num_range, near_range=acquisition.near_range,
+            azimuth_center=float(azimuth_center), dtype=dtype, **options,
         )
-    name = str(method) if isinstance(method, str) else type(method).__name__
-    simulator = _resolve_method(method, options)
+    simulator = _registry.build(method, options)
+    name = method if isinstance(method, str) else type(simulator).__name__
     _validate.check_supported(simulator, radar, scene)
-    simulator = simulator.prepare(radar, scene, acquisition)
+    plan = simulator.prepare(radar, scene, acquisition)
     _validate.check_model(simulator, radar, scene, motion, acquisition, strict)
     motion_bytes = sum(math.prod(np.shape(v)) * 8 for v in jax.tree_util.tree_leaves(motion))
-    memory = _memory_plan(simulator, radar, scene, motion_bytes, acquisition, dtype,
-                          batch_size, devices, memory_limit, name)
-    plan = _Plan(batch_size=batch_size, batch_chunk=memory.batch_chunk,
-                 devices=memory.devices, batch_shards=memory.batch_shards,
-                 pulse_shards=memory.pulse_shards)
-    return memory.simulator, motion, acquisition, dtype, name, plan, memory
+    memory = memory_plan(simulator, plan, radar, scene, motion_bytes, acquisition, dtype,
+                         batch_size, devices, memory_limit, name)
+    call = CallPlan(batch_size=batch_size, batch_chunk=memory.batch_chunk,
+                    devices=memory.devices, batch_shards=memory.batch_shards,
+                    pulse_shards=memory.pulse_shards)
+    return memory.simulator, plan, motion, acquisition, dtype, name, call, memory
 
 
 def simulate(
@@ -407,9 +170,10 @@ def simulate(
             (the exact model by one non-uniform FFT per pulse), ``"fourier_2d"`` (ideal
             straight track, §4), ``"small_deviation"`` / ``"algorithm_a"``,
             ``"moderate_deviation"`` / ``"algorithm_b"`` (§5–6), ``"high_speed"`` (§10),
-            ``"chirp_scaling"`` (§9), ``"auto"`` (the fastest method whose validity
-            budgets hold, see :func:`sarjax.validity`, for every realization of a batch;
-            the choice is in ``RawData.method``) or a simulator instance.
+            ``"chirp_scaling"`` (§9), ``"auto"`` (the cheapest method whose validity
+            budgets hold by each simulator's cost model, see :func:`sarjax.validity`,
+            for every realization of a batch; the choice is in ``RawData.method``) or a
+            simulator instance. ``sarjax.simulators.method_names()`` lists them.
         num_pulses: pulses N_x (default ``radar.num_pulses``).
         num_range: range samples N_r (default ``radar.num_range``).
         near_range: r' of the first range sample [m] (default ``radar.near_range``).
@@ -445,12 +209,12 @@ def simulate(
             the estimated peak memory exceeds ``memory_limit`` even at the smallest chunks;
             the message states the estimate and the limit.
     """
-    simulator, motion, acquisition, dtype, name, plan, _ = _prepare(
+    simulator, plan, motion, acquisition, dtype, name, call, _ = _prepare(
         radar, scene, motion, method=method, num_pulses=num_pulses, num_range=num_range,
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options,
     )
-    return _run(simulator, radar, scene, motion, acquisition, dtype, name, plan)
+    return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
 
 
 def simulation_memory(

@@ -6,11 +6,15 @@ they are skipped, and the structural checks (shapes) still apply.
 
 from __future__ import annotations
 
-import math
 import warnings
 
 import jax
 import numpy as np
+
+# the window and sampling measures live with the budgets; re-exported here
+from .simulators._budgets import doppler_band as doppler_band
+from .simulators._budgets import echoes_outside_window as echoes_outside_window
+from .simulators._budgets import scene_positions as scene_positions
 
 
 def _concrete(value):
@@ -191,116 +195,6 @@ def check_arguments(radar, options) -> bool:
     return bool(strict)
 
 
-def _scene_positions(scene):
-    """(x, r) NumPy arrays broadcastable to the scene's scatterers, or None if traced."""
-    from .scene import ReflectivityGrid
-
-    x, r = _concrete(scene.azimuth), _concrete(scene.range)
-    if x is None or r is None:
-        return None
-    if isinstance(scene, ReflectivityGrid):
-        return x[:, None], r[None, :]
-    return x, r
-
-
-def doppler_band(radar, scene, acquisition) -> float:
-    """The largest Doppler extent [Hz] of one scatterer's echo over the pulses of the
-    window that see it within the beam's half-width, ``|u| ≤ 1/2``.
-
-    ``u = (a + r T)/(X (1 − a T/r))`` (``a = x' − x``, ``T = tan φ_d``, ``X = λr/L``),
-    so the beam covers ``a ∈ [a(−½), a(½)]``, ``a(u) = (uX − rT)/(1 + uXT/r)``; over the
-    part of it inside the window the Doppler ``f = −(2v/λ) a/√(r² + a²)`` spans
-    ``(2v/λ) |a/R|`` between the ends. For a window longer than the footprint at
-    broadside this is ``2v/L``; for a shorter one, ``≈ 2v A/(λ r)`` (A its length).
-    Static scatterers, nominal pointing. Returns 0 for traced inputs.
-    """
-    positions = _scene_positions(scene)
-    values = [_concrete(v) for v in (radar.wavelength, radar.antenna_length, radar.velocity,
-                                     radar.squint, radar.azimuth_spacing,
-                                     acquisition.azimuth_center)]
-    if positions is None or any(v is None for v in values):
-        return 0.0
-    lam, length, v, squint, dx, centre = (float(v) for v in values)
-    x, r = positions
-    t = math.tan(squint)
-    footprint = lam * r / length
-
-    def edge(u):
-        denominator = 1 + u * footprint * t / r
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(denominator > 0, (u * footprint - r * t) / denominator,
-                            np.sign(u) * np.inf)
-
-    half = (acquisition.num_pulses - 1) / 2 * dx
-    lo = np.maximum(edge(-0.5), centre - half - x)
-    hi = np.minimum(edge(0.5), centre + half - x)
-    sine = lambda a: a / np.sqrt(r**2 + a**2)
-    span = np.where(hi > lo, sine(np.where(hi > lo, hi, 0.0)) - sine(np.where(hi > lo, lo, 0.0)),
-                    0.0)
-    return float(2 * v / lam * np.max(span, initial=0.0))
-
-
-def echoes_outside_window(radar, scene, motion, acquisition):
-    """Which scatterers' echoes cannot reach the range window (bool, broadcast to the
-    scene: (scatterer,) or (azimuth, range) for a grid), or None for traced inputs.
-
-    The echo of a scatterer at (x, r) covers ``r' ∈ [R_min − cτ/4, R_max + cτ/4]``, R its
-    range from the window's pulses (nearest and farthest), widened by the largest
-    line-of-sight deviation ``max|Δy| + max|Δz|``, the range walk ``|v_r|`` × the
-    window's duration and two range samples.
-    """
-    positions = _scene_positions(scene)
-    values = [_concrete(v) for v in (radar.azimuth_spacing, radar.range_spacing,
-                                     radar.pulse_half_length, radar.prf,
-                                     acquisition.near_range, acquisition.azimuth_center)]
-    if positions is None or any(v is None for v in values):
-        return None
-    dx, dr, half_pulse, prf, near, centre = (float(v) for v in values)
-    x, r = positions
-    margin = 2 * dr
-    for name in ("horizontal", "vertical"):
-        v = getattr(motion, name)
-        c = None if v is None else _concrete(v)
-        if v is not None and c is None:
-            return None
-        if c is not None and c.size:
-            margin += float(np.max(np.abs(c)))
-    duration = acquisition.num_pulses / prf
-    speed = _concrete(getattr(scene, "velocity_range", None)) if hasattr(
-        scene, "velocity_range") else None
-    walk = 0.0 if speed is None else np.abs(speed) * duration
-    half = (acquisition.num_pulses - 1) / 2 * dx
-    first, last = centre - half, centre + half
-    nearest = np.clip(x, first, last) - x
-    farthest = np.maximum(np.abs(first - x), np.abs(last - x))
-    far = near + (acquisition.num_range - 1) * dr
-    reach = half_pulse + margin + walk
-    # start = √(r² + nearest²) − reach > far and end = √(r² + farthest²) + reach < near,
-    # compared in squares (no square root per scatterer)
-    r2 = r**2
-    beyond = r2 + nearest**2 > (far + reach) ** 2
-    low = near - reach
-    before = (r2 + farthest**2 < low**2) & (low > 0)
-    return np.broadcast_to(beyond | before, np.broadcast_shapes(np.shape(x), np.shape(r)))
-
-
-def _validity_method(simulator):
-    """The :func:`sarjax.validity` method name of an approximate simulator (or None)."""
-    from .simulators import Fourier2D, ModerateDeviation, SmallDeviation
-
-    for cls, name in ((Fourier2D, "fourier_2d"), (SmallDeviation, "small_deviation"),
-                      (ModerateDeviation, "moderate_deviation")):
-        if isinstance(simulator, cls):
-            return name
-    return None
-
-
-def _is_exact(simulator) -> bool:
-    from .simulators import TimeDomain, TimeDomainNUFFT
-
-    return isinstance(simulator, (TimeDomain, TimeDomainNUFFT))
-
-
 def _realizations(motion):
     """The motion of each realization of a batch (one for an unbatched motion)."""
     from .motion import Motion
@@ -320,28 +214,20 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
     * **Swath**: when no scatterer's echo can reach the range window
       (:func:`echoes_outside_window`) the data would be identically zero: a
       :class:`SwathWarning`; strict: a ValueError, also when only some scatterers miss it.
-    * **Azimuth aliasing** (strict only): a PRF below the echoes' Doppler band
-      (:func:`doppler_band`; ``2v/L`` for a window longer than the footprint). The exact
-      models (``time_domain``, ``time_domain_nufft``) sample the echo at the pulses, so
-      their record is right, aliasing included: never refused. The Fourier-domain
-      simulators synthesise the principal Doppler band only and lose the folded part
-      (against the exact model, airborne set, 128 pulses, two targets: NMSE −41 dB at
-      PRF = 2 × 2v/L, −29.5 dB at 0.75 × 2v/L, −2.4 dB at 0.3 × 2v/L), so for them it is
-      an approximation outside its validity: a ValueError in strict mode. It is not a
-      warning by default: undersampled small configurations (PRF ≪ 2v/L) are a
-      deliberate, cheap setting for tests of gradients and shapes, where only
-      self-consistency matters.
-    * **Validity budgets** (strict only): the approximate methods (``fourier_2d``,
-      ``small_deviation``, ``moderate_deviation``) must hold every budget of
-      :func:`sarjax.validity` for every realization, with the simulator's own
-      ``pointing_order``, ``coupling_order`` and ``envelope_correction``.
+    * **Budgets** (strict only): every budget the simulator declares
+      (``simulator.budgets``, :func:`sarjax.validity`) must hold for every realization:
+      for the Fourier-domain methods the Doppler sampling of the principal band (a PRF
+      below the echoes' Doppler band, :func:`doppler_band`, loses the folded part) and
+      the approximation budgets, with the simulator's own options. The exact models
+      sample the echo at the pulses, aliasing included: only their range window counts.
+      Not a warning by default: undersampled small configurations (PRF ≪ 2v/L) are a
+      deliberate, cheap setting for tests of gradients and shapes.
 
     Checks of traced values are skipped.
     """
-    name = type(simulator).__name__
     outside = echoes_outside_window(radar, scene, motion, acquisition)
     if outside is not None and outside.size and outside.any():
-        r = np.broadcast_to(_scene_positions(scene)[1], outside.shape)[outside]
+        r = np.broadcast_to(scene_positions(scene)[1], outside.shape)[outside]
         dr = float(radar.range_spacing)
         window = (f"range window r' = {float(acquisition.near_range):.6g} … "
                   f"{float(acquisition.near_range) + (acquisition.num_range - 1) * dr:.6g} m")
@@ -356,39 +242,21 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
                 f"strict=True: {int(outside.sum())} of {outside.size} scatterers' echoes "
                 f"miss the {window} (scene.range = {np.unique(r)[:5]} m …)"
             )
-    if strict and not _is_exact(simulator):
-        band = doppler_band(radar, scene, acquisition)
-        prf = _concrete(radar.prf)
-        if prf is not None and band > float(prf):
-            message = (
-                f"radar.prf={float(prf):g} Hz is below the Doppler band {band:.4g} Hz of the "
-                f"echoes (2v/L = {2 * float(radar.velocity) / float(radar.antenna_length):.4g}"
-                f" Hz): the azimuth samples alias, and {name} synthesises only the principal "
-                "band (use method='time_domain' or 'time_domain_nufft', or raise the PRF)"
-            )
-            raise ValueError(f"strict=True: {message}")
-    if not strict:
+    if not strict or _concrete(radar.prf) is None:
         return
-    method = _validity_method(simulator)
-    if method is None:
-        return
-    from .validity import validity
-
-    options = dict(pointing_order=getattr(simulator, "pointing_order", 2),
-                   coupling_order=getattr(simulator, "coupling_order", 3),
-                   envelope_correction=getattr(simulator, "envelope_correction", True))
+    name = type(simulator).names[0] if type(simulator).names else type(simulator).__name__
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
-        report = validity(radar, scene, realization, method=method,
-                          num_pulses=acquisition.num_pulses,
-                          azimuth_center=float(acquisition.azimuth_center), **options)
-        if not report.valid:
-            broken = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
-                               for b in report.budgets if not b.ok)
+        report = simulator.budgets(radar, scene, realization, acquisition)
+        broken = [b for b in report.violated if b.name != "range_window"]
+        if broken:
+            text = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
+                             for b in broken)
             which = f" (realization {index})" if len(realizations) > 1 else ""
+            exact = "'time_domain' or 'time_domain_nufft'"
             raise ValueError(
-                f"strict=True: method={method!r} is outside its validity{which}: {broken}; "
-                "use method='auto' or 'time_domain', or strict=False"
+                f"strict=True: method={name!r} is outside its validity{which}: {text}; "
+                f"use method='auto' or {exact}, or strict=False"
             )
 
 

@@ -164,9 +164,9 @@ def test_batched_values_do_not_retrace():
     traces = []
 
     class CountingTimeDomain(sj.TimeDomain):
-        def __call__(self, radar, scene, motion, acquisition, dtype):
+        def simulate(self, plan, radar, scene, motion, acquisition, dtype):
             traces.append(motion.horizontal.shape)
-            return super().__call__(radar, scene, motion, acquisition, dtype)
+            return super().simulate(plan, radar, scene, motion, acquisition, dtype)
 
     for seed in range(3):
         horizontal, _, pointing = _realizations(4, seed=seed)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sarjax._numerics.interpolation import periodic_rows, sinc_interpolate_rows
-from sarjax.simulators._fourier import dtft_length
+from sarjax.simulators._fourier_engine import dtft_length
 
 
 def _rows_and_exact(n_lines, n_rows, positions, rng):

@@ -227,8 +227,8 @@ def _simulation_ratio(method, num_pulses, num_range, scene, **options):
     acquisition = Acquisition(num_pulses=num_pulses, num_range=num_range,
                               near_range=NEAR_RANGE, azimuth_center=0.0)
     compiled = _simulate_module._run.lower(
-        plan.simulator, radar, scene, motion, acquisition, jnp.dtype(jnp.complex128), method,
-        _simulate_module._Plan()).compile()
+        plan.simulator, plan.plan, radar, scene, motion, acquisition,
+        jnp.dtype(jnp.complex128), method, _simulate_module.CallPlan()).compile()
     return plan.estimate.total / _xla_bytes(compiled)
 
 

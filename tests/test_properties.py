@@ -16,7 +16,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sarjax as sj
-from sarjax._simulate import _METHODS
 
 NUM_PULSES, NUM_RANGE, NEAR_RANGE = 64, 128, 5100.0
 # airborne X-band with a 1 µs chirp (50 samples): PRF = 400 Hz = 2 × 2v/L, 0.25 m pulses
@@ -198,10 +197,7 @@ def test_parseval_point_target_energy(method, tolerance, x, r, gamma):
 
 # ---- a straight track equals zero deviations ---------------------------------------
 
-_CLASSES = {}
-for _name, _cls in _METHODS.items():  # one name per simulator class (aliases share one)
-    _CLASSES.setdefault(_cls, _name)
-REGISTERED = sorted(_CLASSES.values())
+REGISTERED = sorted(sj.simulators.method_names(aliases=False))  # one name per class
 STRAIGHT_ONLY = {"high_speed", "chirp_scaling"}  # refuse any motion, zeros included
 
 

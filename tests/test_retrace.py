@@ -4,7 +4,7 @@ Every physical number (radar parameters, deviations, reflectivities, near range,
 azimuth centre) is an array leaf of the jitted ``_run``; only the grid sizes, the
 number of scatterers, the dtype and the simulator options are static.
 
-Traces are counted in the simulator's ``__call__``, which runs only while ``_run`` is
+Traces are counted in the simulator's ``simulate``, which runs only while ``_run`` is
 being traced. To keep the count independent of what other tests compiled earlier in
 the session, each test uses a fresh cache key: a simulator subclass defined inside the
 test, or (for the default ``method="time_domain"`` path) a unique ``memory_budget=``
@@ -64,9 +64,9 @@ def _counting_simulator():
     traces = []
 
     class CountingTimeDomain(sj.TimeDomain):
-        def __call__(self, radar, scene, motion, acquisition, dtype):
+        def simulate(self, plan, radar, scene, motion, acquisition, dtype):
             traces.append(acquisition.num_pulses)
-            return super().__call__(radar, scene, motion, acquisition, dtype)
+            return super().simulate(plan, radar, scene, motion, acquisition, dtype)
 
     return CountingTimeDomain(), traces
 
@@ -133,13 +133,13 @@ def test_value_changes_do_not_retrace():
 def test_default_method_does_not_retrace(monkeypatch):
     """The ``method="time_domain"`` path (a new TimeDomain per call) hits the cache too."""
     traces = []
-    original = sj.TimeDomain.__call__
+    original = sj.TimeDomain.simulate
 
-    def counting_call(self, radar, scene, motion, acquisition, dtype):
+    def counting_call(self, plan, radar, scene, motion, acquisition, dtype):
         traces.append(acquisition.num_pulses)
-        return original(self, radar, scene, motion, acquisition, dtype)
+        return original(self, plan, radar, scene, motion, acquisition, dtype)
 
-    monkeypatch.setattr(sj.TimeDomain, "__call__", counting_call)
+    monkeypatch.setattr(sj.TimeDomain, "simulate", counting_call)
     budget = _unique_budget()
     cached = getattr(_simulate_module._run, "_cached", None)
     cache_size = getattr(cached, "_cache_size", None)  # jax's jit cache, when exposed
@@ -163,12 +163,12 @@ def test_max_traces_with_equinox_debug():
     """The same property with ``eqx.debug.assert_max_traces`` on the traced kernel."""
 
     @eqx.debug.assert_max_traces(max_traces=2)
-    def kernel(simulator, radar, scene, motion, acquisition, dtype):
-        return sj.TimeDomain.__call__(simulator, radar, scene, motion, acquisition, dtype)
+    def kernel(simulator, plan, radar, scene, motion, acquisition, dtype):
+        return sj.TimeDomain.simulate(simulator, plan, radar, scene, motion, acquisition, dtype)
 
     class DebugTimeDomain(sj.TimeDomain):
-        def __call__(self, radar, scene, motion, acquisition, dtype):
-            return kernel(self, radar, scene, motion, acquisition, dtype)
+        def simulate(self, plan, radar, scene, motion, acquisition, dtype):
+            return kernel(self, plan, radar, scene, motion, acquisition, dtype)
 
     simulator = DebugTimeDomain()
     for call in _value_changes():

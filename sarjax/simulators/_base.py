@@ -1,10 +1,52 @@
-"""Interface shared by all raw-data simulators."""
+"""What every raw-data simulator declares, and the plan it runs with.
+
+A simulator is an ``eqx.Module`` whose fields are the options a user sets; its class
+says what it is (``names``, ``physics``, ``motion``, ``supports_squint``,
+``supports_moving_targets``, ``exact``, ``pulse_local``) and answers, for concrete
+inputs and without simulating, how valid (:meth:`AbstractSimulator.budgets`), how large
+(:meth:`AbstractSimulator.memory`) and how costly (:meth:`AbstractSimulator.cost`) a run
+would be. :meth:`AbstractSimulator.prepare` turns the concrete inputs into a private
+plan (static sizes); :meth:`AbstractSimulator.simulate` is the pure kernel that
+:func:`sarjax.simulate` jits. The registry (``_registry``) is built from these classes.
+"""
 
 from __future__ import annotations
 
 import abc
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
+import jax
+import numpy as np
+
+from . import _budgets
+
+MOTION_KINDS = ("straight", "small", "moderate", "any")
+
+
+class Cost(NamedTuple):
+    """Estimated time of one call [s]: ``compile`` (first call only) and ``steady``."""
+
+    compile: float
+    steady: float
+
+    def total(self, first_call: bool = True) -> float:
+        """The time a caller waits: steady, plus compile on a first call."""
+        return self.steady + (self.compile if first_call else 0.0)
+
+
+class AbstractPlan(eqx.Module):
+    """Static sizes a simulator fixed from concrete inputs (``prepare()``): part of the
+    jit cache key, never set by a user."""
+
+
+class NoPlan(AbstractPlan):
+    """The plan of a simulator with nothing to fix ahead of the call."""
+
+
+def is_traced(*values) -> bool:
+    """True when any value is a tracer (its concrete value is unknown)."""
+    return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(values))
 
 
 class AbstractSimulator(eqx.Module):
@@ -12,13 +54,83 @@ class AbstractSimulator(eqx.Module):
 
     Returns the (azimuth, range) complex raw data on ``acquisition``'s grid. Options are
     module fields; :func:`sarjax.simulate` is the one jitted entry point.
+
+    Class attributes (declarations):
+        names: method names accepted by :func:`sarjax.simulate` (the first is canonical).
+        physics: the section of physics.md (and the seed) the simulator implements.
+        motion: the platform motion it models: ``"straight"`` (none), ``"small"``,
+            ``"moderate"`` or ``"any"`` (exact).
+        supports_squint, supports_moving_targets: model features it implements.
+        exact: it evaluates the exact model (no approximation budgets).
+        pulse_local: its pulses are independent (a block of pulses can be simulated on
+            its own, so pulses can be split across devices).
+        in_auto: ``method="auto"`` may choose it (its approximation budgets are measured
+            against the exact model).
     """
 
-    @abc.abstractmethod
-    def __call__(self, radar, scene, motion, acquisition, dtype):
-        """Simulate raw data; see :func:`sarjax.simulate`."""
+    names: ClassVar[tuple[str, ...]] = ()
+    physics: ClassVar[str] = ""
+    motion: ClassVar[str] = "any"
+    supports_squint: ClassVar[bool] = False
+    supports_moving_targets: ClassVar[bool] = False
+    exact: ClassVar[bool] = False
+    pulse_local: ClassVar[bool] = False
+    in_auto: ClassVar[bool] = False
 
-    def prepare(self, radar, scene, acquisition):
-        """Eager (outside ``jit``) checks and static sizes from concrete values; returns the
-        simulator to run (default: unchanged)."""
-        return self
+    @abc.abstractmethod
+    def simulate(self, plan, radar, scene, motion, acquisition, dtype):
+        """The pure kernel: (num_pulses, num_range) raw data with the plan's sizes."""
+
+    def __call__(self, radar, scene, motion, acquisition, dtype, plan=None):
+        """Simulate raw data (see :func:`sarjax.simulate`); without ``plan`` the plan is
+        made here from the concrete inputs."""
+        if plan is None:
+            plan = self.prepare(radar, scene, acquisition)
+        return self.simulate(plan, radar, scene, motion, acquisition, dtype)
+
+    def prepare(self, radar, scene, acquisition) -> AbstractPlan:
+        """Eager checks and static sizes from concrete values: the private plan."""
+        return NoPlan()
+
+    # ---- declarations evaluated on concrete inputs ----------------------------------
+
+    def approximation_budgets(self, radar, scene, motion, acquisition):
+        """The budgets of the approximations this method makes (none for exact ones)."""
+        return (), 0.0
+
+    def budgets(self, radar, scene, motion, acquisition) -> _budgets.Validity:
+        """Every budget of this run: window and sampling, then the approximations'.
+
+        Exact methods report the range window only (they sample the echo at the pulses,
+        aliasing included); the others add the Doppler sampling of the principal band
+        and their approximation budgets (:mod:`sarjax.simulators._budgets`).
+        """
+        found = list(_budgets.range_window_budget(radar, scene, motion, acquisition))
+        if not self.exact:
+            found += _budgets.doppler_sampling_budget(radar, scene, acquisition)
+        approximations, pointing_ratio = self.approximation_budgets(
+            radar, scene, motion, acquisition)
+        return _budgets.Validity(self.names[0], tuple(approximations) + tuple(found),
+                                 pointing_ratio)
+
+    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+        """Workspace of one realization [bytes] beyond the output and inputs (default:
+        eight complex128 copies of the output)."""
+        return int(8 * 16 * acquisition.num_pulses * acquisition.num_range)
+
+    def smaller_chunks(self, plan, acquisition, scene, dtype):
+        """Simulators with the same output and smaller chunks, larger first (for the
+        memory plan; default: none)."""
+        return ()
+
+    def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
+        """Estimated compile and steady time [s] of one call on a 2-core CPU (used by
+        ``method="auto"``); a simulator without a cost model is never chosen."""
+        return Cost(float("inf"), float("inf"))
+
+
+def concrete_float(value):
+    """A Python float of a concrete scalar, or None for a tracer."""
+    if is_traced(value):
+        return None
+    return float(np.asarray(value))

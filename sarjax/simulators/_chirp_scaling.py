@@ -33,8 +33,6 @@ expansion of the 2-D phase in η) grow with the swath and the bandwidth. The lis
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from typing import ClassVar
 
 import equinox as eqx
@@ -43,8 +41,10 @@ import numpy as np
 
 from .._numerics.interpolation import next_fast_len
 from ..scene import ReflectivityGrid
-from ._base import AbstractSimulator
-from ._fourier import chirp_spectrum
+from . import _fourier_engine as engine
+from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._budgets import LobeGeometry
+from ._tracks import StraightTrack
 
 _TWO_PI = 2 * jnp.pi
 
@@ -58,6 +58,13 @@ def range_doppler_terms(radar, xi, reference_range):
     return d, curvature, b_m
 
 
+class ChirpScalingPlan(AbstractPlan):
+    """Static sizes: the azimuth padding (pulses on each side) and the range FFT length."""
+
+    azimuth_pad: int = eqx.field(static=True)
+    range_fft_size: int = eqx.field(static=True)
+
+
 class ChirpScaling(AbstractSimulator):
     """Inverse chirp-scaling simulator (seed 003), see the module docstring.
 
@@ -65,58 +72,64 @@ class ChirpScaling(AbstractSimulator):
         azimuth_padding: extra azimuth samples on each side, in footprints X.
         reference_range: r_ref [m]; None = the middle of the range window (the listing's
             ``r_ref``).
-        azimuth_pad, range_fft_size: static sizes (set by ``prepare()``).
     """
 
+    names: ClassVar[tuple[str, ...]] = ("chirp_scaling",)
+    physics: ClassVar[str] = "physics.md §9 (seed 003, Appendix A)"
+    motion: ClassVar[str] = "straight"
     supports_squint: ClassVar[bool] = False
     supports_moving_targets: ClassVar[bool] = False
+    # the range-Doppler approximations (chirp rate at r_ref, quadratic phase in η) have
+    # no measured budget yet: ``method="auto"`` does not choose it
+    in_auto: ClassVar[bool] = False
 
     azimuth_padding: float = eqx.field(static=True, default=1.0)
     reference_range: float | None = eqx.field(static=True, default=None)
-    azimuth_pad: int | None = eqx.field(static=True, default=None)
-    range_fft_size: int | None = eqx.field(static=True, default=None)
 
-    def prepare(self, radar, scene, acquisition):
+    def prepare(self, radar, scene, acquisition) -> ChirpScalingPlan:
         """Check a grid scene; fix the padding and FFT sizes from concrete values."""
         if isinstance(scene, ReflectivityGrid):
-            az = np.asarray(scene.azimuth)
+            engine.check_grid_scene(scene, radar)
             rg = np.asarray(scene.range)
-            dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
-            if az.size > 1 and not np.allclose(np.diff(az), dx, rtol=1e-9):
-                raise ValueError(
-                    f"ReflectivityGrid azimuth spacing {np.diff(az).mean():.6g} m differs "
-                    f"from the pulse spacing v/PRF = {dx:.6g} m (method='chirp_scaling')")
+            dr = float(radar.range_spacing)
             if rg.size > 1 and not np.allclose(np.diff(rg), dr, rtol=1e-9):
                 raise ValueError(
                     f"ReflectivityGrid range spacing {np.diff(rg).mean():.6g} m differs "
                     f"from the range sample spacing c/(2 f_s) = {dr:.6g} m "
                     "(method='chirp_scaling')")
-        r_max = float(np.max(np.asarray(scene.range)))
-        xi_max = math.pi / float(radar.azimuth_spacing)
-        k0 = float(radar.wavenumber)
         # an echo's extent along track: the footprint, or where its Doppler leaves the PRF
-        # band (beyond, the sampled spectrum holds only aliases)
-        extent = min(float(radar.footprint(r_max)),
-                     r_max * xi_max / math.sqrt(max(k0**2 - xi_max**2, 1e-12)))
-        pad = int(math.ceil(self.azimuth_padding * extent / float(radar.azimuth_spacing)))
-        pad = -(-pad // 128) * 128
-        migration = r_max * (1 / math.sqrt(max(1 - (xi_max / k0) ** 2, 1e-6)) - 1)
-        extra = int(float(radar.chirp_samples)) + 2 + int(migration / float(radar.range_spacing))
-        n_r = next_fast_len(acquisition.num_range + extra)
-        return dataclasses.replace(self, azimuth_pad=pad, range_fft_size=n_r)
+        # band; in range the migration at the band edge
+        pad, n_r = engine.work_grid(radar, scene, acquisition, self.azimuth_padding,
+                                    doppler_limited=True, migration=True)
+        return ChirpScalingPlan(pad, n_r)
 
-    def __call__(self, radar, scene, motion, acquisition, dtype):
+    def approximation_budgets(self, radar, scene, motion, acquisition):
+        """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
+        lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
+                            float(acquisition.azimuth_center))
+        return StraightTrack().approximation_budgets(None, radar, lobe)
+
+    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        return int(16 * (2.4 * n_x * plan.range_fft_size + 0.1 * acquisition.num_pulses
+                         * plan.range_fft_size))
+
+    def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
+        """Four FFT passes and three phase multiplies per sample (≈ 5 FFT2-equivalents)."""
+        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        return Cost(compile=2.0, steady=5 * 8e-9 * n_x * plan.range_fft_size)
+
+    def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if not motion.is_ideal:
             raise ValueError("method='chirp_scaling' simulates a straight track: motion errors "
                              "are not implemented (use method='moderate_deviation')")
-        sim = self if self.range_fft_size is not None else self.prepare(radar, scene, acquisition)
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-        pad, n_r = sim.azimuth_pad, sim.range_fft_size
+        pad, n_r = plan.azimuth_pad, plan.range_fft_size
         n_x = next_fast_len(n_pulses + 2 * pad)
         dx, dr = radar.azimuth_spacing, radar.range_spacing
         near = acquisition.near_range
         x0 = acquisition.pulse_azimuths(radar)[0] - pad * dx
-        r_ref = near + (n_range // 2) * dr if sim.reference_range is None else sim.reference_range
+        r_ref = near + (n_range // 2) * dr if self.reference_range is None else self.reference_range
         xi = _TWO_PI * jnp.fft.fftfreq(n_x, 1.0) / dx
         eta = _TWO_PI * jnp.fft.fftfreq(n_r, 1.0) / dr
         d, curv, b_m = range_doppler_terms(radar, xi, r_ref)
@@ -140,7 +153,7 @@ class ChirpScaling(AbstractSimulator):
             spectrum = lines @ jnp.exp(-1j * eta[None, :] * (scene.range - near)[:, None])
         # Φ₃⁻¹ and the chirp's band
         b = radar.chirp_rate
-        band = chirp_spectrum(radar, eta) * jnp.exp(-1j * eta**2 / (4 * b)) / dr
+        band = engine.chirp_spectrum(radar, eta) * jnp.exp(-1j * eta**2 / (4 * b)) / dr
         phi3 = jnp.exp(-1j * eta[None, :] * (curv * r_ref)[:, None]
                        + 1j * eta[None, :] ** 2 / (4 * (b_m * (1 + curv))[:, None]))
         rd = jnp.fft.ifft(spectrum * phi3 * band[None, :], axis=1)  # range-Doppler, r'
@@ -159,7 +172,6 @@ def _azimuth_terms(radar, xi, d, curv, b_m, ranges, r_ref):
     azimuth = jnp.exp(-1j * k0 * (d - 1)[:, None] * ranges[None, :])
     residual = jnp.exp(-1j * (b_m * curv * (1 + curv))[:, None]
                        * (ranges - r_ref)[None, :] ** 2)
-    u_star = -xi * radar.antenna_length / (radar.wavelength * k0 * d)
-    amplitude = jnp.sqrt(_TWO_PI * ranges[None, :] / (k0 * d[:, None] ** 3)) / (
-        radar.azimuth_spacing) * jnp.exp(-1j * jnp.pi / 4)
+    u_star = engine.stationary_pattern_argument(radar, xi)
+    amplitude = engine.stationary_amplitude(radar, xi[:, None], ranges[None, :])
     return carrier * azimuth * residual * radar.pattern(u_star)[:, None] * amplitude

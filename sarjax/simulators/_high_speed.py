@@ -55,8 +55,6 @@ range-wavenumber columns, each taken to pulses at once, so memory is
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from typing import ClassVar
 
 import equinox as eqx
@@ -67,8 +65,10 @@ import numpy as np
 from .._numerics.interpolation import next_fast_len, sinc_interpolate
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
-from ._base import AbstractSimulator
-from ._fourier import check_grid_scene, chirp_spectrum
+from . import _fourier_engine as engine
+from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._budgets import LobeGeometry
+from ._tracks import StraightTrack
 
 _TWO_PI = 2 * jnp.pi
 
@@ -174,6 +174,35 @@ def spectrum_terms(radar, xi, k, velocity_range, velocity_azimuth, stop_and_go=F
     return kappa_rel, amplitude, u
 
 
+class HighSpeedPlan(AbstractPlan):
+    """Static plan of a high-speed run.
+
+    Attributes:
+        groups: velocity groups ``((v_r, v_a, indices), ...)`` (indices None: a grid).
+        azimuth_pad, range_fft_size: the padded grid's sizes.
+    """
+
+    groups: tuple = eqx.field(static=True)
+    azimuth_pad: int = eqx.field(static=True)
+    range_fft_size: int = eqx.field(static=True)
+
+
+def velocity_groups(radar, scene) -> tuple:
+    """One group ``(v_r, v_a, indices)`` per distinct scatterer velocity (eager)."""
+    if isinstance(scene, ReflectivityGrid):
+        return ((0.0, 0.0, None),)
+    vr = np.asarray(scene.velocity_range, dtype=float)
+    va = np.asarray(scene.velocity_azimuth, dtype=float)
+    pairs = np.stack([vr, va], axis=1)
+    if float(np.max(np.abs(pairs))) >= float(radar.velocity):
+        raise ValueError(
+            f"scene velocities up to {np.max(np.abs(pairs)):g} m/s reach the "
+            f"platform velocity {float(radar.velocity):g} m/s"
+        )
+    return tuple((float(a), float(b), tuple(int(i) for i in np.flatnonzero((vr == a) & (va == b))))
+                 for a, b in np.unique(pairs, axis=0))
+
+
 class HighSpeed(AbstractSimulator):
     """High-speed (non-stop-and-go) 2-D Fourier simulator with moving targets, seed 004
     §3; the derivation and steps are in the module docstring.
@@ -186,67 +215,63 @@ class HighSpeed(AbstractSimulator):
             ±f_s/2 when f_s/Δf is close to 1).
         taps: windowed-sinc length of the inverse Stolt interpolation (grids).
         column_chunk: range-wavenumber columns per step (memory bound).
-        groups: velocity groups ``((v_r, v_a, indices), ...)`` (set by ``prepare()``).
-        azimuth_pad, range_fft_size: static sizes (set by ``prepare()``).
     """
 
+    names: ClassVar[tuple[str, ...]] = ("high_speed",)
+    physics: ClassVar[str] = "physics.md §10 (seed 004 §2–3)"
+    motion: ClassVar[str] = "straight"
     supports_squint: ClassVar[bool] = True
     supports_moving_targets: ClassVar[bool] = True
+    # non-stop-and-go: a different model from the (stop-and-go) exact default, so
+    # ``method="auto"`` does not substitute it
+    in_auto: ClassVar[bool] = False
 
     stop_and_go: bool = eqx.field(static=True, default=False)
     azimuth_padding: float = eqx.field(static=True, default=1.0)
     range_aliases: int = eqx.field(static=True, default=1)
     taps: int = eqx.field(static=True, default=8)
     column_chunk: int = eqx.field(static=True, default=256)
-    groups: tuple | None = eqx.field(static=True, default=None)
-    azimuth_pad: int | None = eqx.field(static=True, default=None)
-    range_fft_size: int | None = eqx.field(static=True, default=None)
 
-    def prepare(self, radar, scene, acquisition):
-        """Velocity groups and FFT sizes from the concrete inputs."""
+    def prepare(self, radar, scene, acquisition) -> HighSpeedPlan:
+        """Velocity groups and FFT sizes from the concrete inputs: room in range for the
+        walk and curvature of an echo over the padded azimuth window (squinted echoes
+        walk across the range window: beyond it they would wrap)."""
         if isinstance(scene, ReflectivityGrid):
-            check_grid_scene(scene, radar)
-            groups = ((0.0, 0.0, None),)
-        else:
-            vr = np.asarray(scene.velocity_range, dtype=float)
-            va = np.asarray(scene.velocity_azimuth, dtype=float)
-            pairs = np.stack([vr, va], axis=1)
-            unique = np.unique(pairs, axis=0)
-            groups = tuple(
-                (float(a), float(b),
-                 tuple(int(i) for i in np.flatnonzero((vr == a) & (va == b))))
-                for a, b in unique
-            )
-            if float(np.max(np.abs(pairs))) >= float(radar.velocity):
-                raise ValueError(
-                    f"scene velocities up to {np.max(np.abs(pairs)):g} m/s reach the "
-                    f"platform velocity {float(radar.velocity):g} m/s"
-                )
-        footprint = float(radar.footprint(np.max(np.asarray(scene.range))))
-        footprint /= math.cos(float(radar.squint)) ** 2
-        pad = int(math.ceil(self.azimuth_padding * footprint / float(radar.azimuth_spacing)))
-        pad = -(-pad // 128) * 128
-        chirp = int(float(radar.chirp_samples)) + 2
-        # room for the range walk and curvature of an echo over the padded azimuth window
-        # (squinted echoes walk across the range window: beyond it they would wrap)
-        span = (acquisition.num_pulses + 2 * pad) * float(radar.azimuth_spacing)
-        r_min = float(np.min(np.asarray(scene.range)))
-        walk = span * abs(math.sin(float(radar.squint))) + span**2 / (8 * r_min)
-        n_r = next_fast_len(acquisition.num_range + chirp + int(walk / float(radar.range_spacing)))
-        return dataclasses.replace(self, groups=groups, azimuth_pad=pad, range_fft_size=n_r)
+            engine.check_grid_scene(scene, radar)
+        groups = velocity_groups(radar, scene)
+        pad, n_r = engine.work_grid(radar, scene, acquisition, self.azimuth_padding,
+                                    curvature=True)
+        return HighSpeedPlan(groups, pad, n_r)
 
-    def __call__(self, radar, scene, motion, acquisition, dtype):
+    def approximation_budgets(self, radar, scene, motion, acquisition):
+        """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
+        lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
+                            float(acquisition.azimuth_center))
+        return StraightTrack().approximation_budgets(None, radar, lobe)
+
+    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        chunk = min(self.column_chunk, plan.range_fft_size)
+        return int(16 * (3.0 * engine.range_line_count(scene) * n_x + 14.0 * n_x * chunk))
+
+    def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
+        """≈ 40 FFT2-equivalents of the padded grid per velocity group
+        (benchmarks/RESULTS.md, seed 004 Table 1)."""
+        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        steady = 40 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
+        return Cost(compile=3.0, steady=steady)
+
+    def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if not motion.is_ideal:
             raise ValueError(
                 "method='high_speed' simulates a straight track: motion errors are not "
                 "implemented (use method='time_domain', stop_and_go=False)"
             )
-        prepared = self if self.groups is not None else self.prepare(radar, scene, acquisition)
-        return prepared._simulate(radar, scene, acquisition, dtype)
+        return self._simulate(plan, radar, scene, acquisition, dtype)
 
-    def _simulate(self, radar, scene, acquisition, dtype):
+    def _simulate(self, plan, radar, scene, acquisition, dtype):
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-        pad, n_r = self.azimuth_pad, self.range_fft_size
+        pad, n_r = plan.azimuth_pad, plan.range_fft_size
         n_x = next_fast_len(n_pulses + 2 * pad)
         dx = radar.azimuth_spacing
         dr = radar.range_spacing
@@ -263,7 +288,7 @@ class HighSpeed(AbstractSimulator):
         # per velocity group: grid → DTFT over range lines of F_j(ξ) √r_j e^{−j k₀ r_j} on
         # the sampled ξ; points → weights γ √r e^{−j k₀ r} (their ξ phase per cell)
         groups = []
-        for v_r, v_a, index in self.groups:
+        for v_r, v_a, index in plan.groups:
             if gridded:
                 # e^{−jξ_d (x_i − x0)} first: the FFT then supplies the offsets from ξ_d
                 ranges = scene.range
@@ -298,7 +323,7 @@ class HighSpeed(AbstractSimulator):
                     else:
                         summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
                     acc = acc + summed * jnp.exp(-1j * kappa * r_ref) * amplitude * radar.pattern(u)
-                factor = chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near) / dr
+                factor = engine.chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near) / dr
                 total = total + acc * factor[None, :]
             along = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]
             carrier = jnp.exp(1j * xi_c * (x_pulses - x0))  # back from the ξ_d-centred grid

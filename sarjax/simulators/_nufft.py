@@ -8,7 +8,7 @@ geometry with the pulse's deviation; the same ``ρ``, pattern and carrier phase 
     F(η) = Σ_P a_P e^{−jη (ρ_P − r'_0)},    a_P = γ_P W²(u_P) e^{−j 4πρ_P/λ},
 
 with C the chirp's continuous spectrum (Fresnel integrals, see
-:func:`sarjax.simulators._fourier.chirp_spectrum`) and m the range aliases of the sampled
+:func:`sarjax.simulators._fourier_engine.chirp_spectrum`) and m the range aliases of the sampled
 hard-edged chirp (Poisson summation). ``F`` on the (2M + 1)·n_r wavenumbers of the
 bands m = −M … M is a type-1 non-uniform FFT: each scatterer is spread onto a 2×
 oversampled periodic grid with an "exponential of semicircle" kernel
@@ -43,9 +43,9 @@ from .. import geometry
 from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import unit_phasor
 from ..scene import ReflectivityGrid
-from ._base import AbstractSimulator
-from ._fourier import chirp_spectrum
-from ._time_domain import TimeDomain, echo_range_offset, pattern_argument
+from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._fourier_engine import chirp_spectrum
+from ._time_domain import echo_range_offset, needs_general_kernel, pattern_argument
 
 _TWO_PI = 2 * np.pi
 
@@ -139,6 +139,14 @@ def _spread(points, amplitude, width, grid, coefficients, reach):
 # --------------------------------------------------------------------------------------
 
 
+class NUFFTPlan(AbstractPlan):
+    """Static sizes of the NUFFT exact model: the range FFT length and whether the
+    general (squint, moving, non-stop-and-go) geometry runs."""
+
+    range_fft_size: int = eqx.field(static=True)
+    general: bool = eqx.field(static=True)
+
+
 class TimeDomainNUFFT(AbstractSimulator):
     """Exact time-domain model, one non-uniform FFT per pulse (module docstring).
 
@@ -160,11 +168,16 @@ class TimeDomainNUFFT(AbstractSimulator):
             ~4× slower batched); larger chunks are bounded by ``memory_budget``.
         memory_budget: bytes for the per-chunk intermediates.
         loops: independent pulse loops (they may run concurrently on several cores).
-        range_fft_size, general: static sizes / model choice fixed by ``prepare``.
     """
 
+    names: ClassVar[tuple[str, ...]] = ("time_domain_nufft",)
+    physics: ClassVar[str] = "physics.md §3, §8, §10 (the exact model by a type-1 NUFFT)"
+    motion: ClassVar[str] = "any"
     supports_squint: ClassVar[bool] = True
     supports_moving_targets: ClassVar[bool] = True
+    exact: ClassVar[bool] = True
+    pulse_local: ClassVar[bool] = True
+    in_auto: ClassVar[bool] = True
 
     tolerance: float = eqx.field(static=True, default=1e-4)
     range_bands: int = eqx.field(static=True, default=2)
@@ -173,34 +186,29 @@ class TimeDomainNUFFT(AbstractSimulator):
     pulse_chunk: int = eqx.field(static=True, default=1)
     memory_budget: int = eqx.field(static=True, default=512 * 2**20)
     loops: int = eqx.field(static=True, default=2)
-    range_fft_size: int | None = eqx.field(static=True, default=None)
-    general: bool | None = eqx.field(static=True, default=None)
 
-    def prepare(self, radar, scene, acquisition):
+    def prepare(self, radar, scene, acquisition) -> NUFFTPlan:
         """Check the options; fix the range FFT size and the model branch."""
         kernel_width(self.tolerance)
         if self.engine not in ("nufft", "direct"):
             raise ValueError(f"engine={self.engine!r} must be 'nufft' or 'direct'")
         if not (isinstance(self.range_bands, int) and 0 <= self.range_bands <= 8):
             raise ValueError(f"range_bands={self.range_bands!r} must be an integer in 0…8")
-        general = TimeDomain(stop_and_go=self.stop_and_go, general=self.general).prepare(
-            radar, scene, acquisition).general
-        n_r = self.range_fft_size or next_fast_len(
-            acquisition.num_range + int(float(radar.chirp_samples)) + 2)
-        return dataclasses.replace(self, range_fft_size=n_r, general=general)
+        n_r = next_fast_len(acquisition.num_range + int(float(radar.chirp_samples)) + 2)
+        return NUFFTPlan(n_r, needs_general_kernel(radar, scene, self.stop_and_go))
 
-    def sizes(self, num_range):
+    def sizes(self, plan):
         """(n_r, bands Q/n_r, grid G, kernel width w) of one pulse's transform."""
-        n_r = self.range_fft_size or next_fast_len(2 * num_range)
+        n_r = plan.range_fft_size
         bands = 2 * self.range_bands + 1
         width = kernel_width(self.tolerance)
         grid = next_fast_len(2 * bands * n_r)
         return n_r, bands, grid, width
 
-    def chunk(self, num_pulses, num_range, num_scatterers, dtype):
+    def chunk(self, plan, num_pulses, num_scatterers, dtype):
         """``pulse_chunk``, reduced to fit ``memory_budget`` (about 12 float64 per
         scatterer plus the w spread values, and the grid, per pulse)."""
-        n_r, bands, grid, width = self.sizes(num_range)
+        n_r, bands, grid, width = self.sizes(plan)
         itemsize = jnp.dtype(dtype).itemsize
         per_pulse = num_scatterers * (12 * 8 + 2 * width * (8 + itemsize)) + 4 * grid * 16
         if self.engine == "direct":
@@ -208,11 +216,44 @@ class TimeDomainNUFFT(AbstractSimulator):
         fit = self.memory_budget // max(per_pulse, 1)
         return int(max(1, min(num_pulses, self.pulse_chunk, fit)))
 
-    def __call__(self, radar, scene, motion, acquisition, dtype):
+    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+        """≈ 20 oversampled-grid-sized tables (chirp spectrum, deconvolution, indices),
+        and per pulse in flight (``loops`` concurrent loops of ``chunk()`` pulses) half a
+        grid and the scatterers' geometry and spread values; ``engine="direct"`` adds its
+        (scatterer, band · n_r) phasor table per pulse of a chunk (fitted to XLA's memory
+        analysis, with a margin)."""
+        n_r, bands, grid, width = self.sizes(plan)
+        n, n_s = acquisition.num_pulses, scene.num_scatterers
+        item = np.dtype(dtype).itemsize
+        chunk = self.chunk(plan, n, n_s, dtype)
+        in_flight = max(1, min(self.loops, n)) * chunk
+        per_pulse = grid * 16 // 2 + n_s * (6 * 8 + width * item)
+        workspace = 20 * grid * 16 + in_flight * per_pulse
+        if self.engine == "direct":
+            workspace += 1.2 * chunk * n_s * bands * n_r * 16
+        return int(workspace)
+
+    def smaller_chunks(self, plan, acquisition, scene, dtype):
+        """Fewer pulses at a time, then one loop."""
+        pulse = self.chunk(plan, acquisition.num_pulses, scene.num_scatterers, dtype)
+        while pulse > 1:
+            pulse //= 2
+            yield dataclasses.replace(self, pulse_chunk=pulse)
+        if self.loops > 1:
+            yield dataclasses.replace(self, pulse_chunk=1, loops=1)
+
+    def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
+        """Per pulse: the spreading (≈ 20 M scatterer·tap/s) and one FFT of the
+        oversampled grid (≈ 8 ns per element); compile ≈ 2 s."""
+        _, _, grid, width = self.sizes(plan)
+        per_pulse = scene.num_scatterers * width / 20e6 + 8e-9 * grid * np.log2(max(grid, 2))
+        return Cost(compile=2.0, steady=acquisition.num_pulses * per_pulse)
+
+    def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if isinstance(scene, ReflectivityGrid):
             scene = scene.to_points()
         n_range = acquisition.num_range
-        n_r, bands, grid, width = self.sizes(n_range)
+        n_r, bands, grid, width = self.sizes(plan)
         modes = bands * n_r
         coefficients, _ = spreading_kernel(width, grid / modes)
         deconvolve = jnp.asarray(1.0 / kernel_transform(width, grid / modes, grid, modes))
@@ -240,7 +281,7 @@ class TimeDomainNUFFT(AbstractSimulator):
 
         def echo_geometry(pulse):
             """(ρ − r'_0 [m], a_P) of every scatterer for one pulse."""
-            if self.general:
+            if plan.general:
                 offset, (along, moved, los) = echo_range_offset(
                     radar, pulse, targets, self.stop_and_go)
                 u = pattern_argument(radar, pulse[3], along, moved, los)
@@ -270,7 +311,7 @@ class TimeDomainNUFFT(AbstractSimulator):
             return jnp.fft.ifft(folded)[:n_range]
 
         pulses = (x_pulse, horizontal, vertical, pointing)
-        chunk = self.chunk(acquisition.num_pulses, n_range, scene.num_scatterers, dtype)
+        chunk = self.chunk(plan, acquisition.num_pulses, scene.num_scatterers, dtype)
         return map_pulses(one_pulse, pulses, chunk, self.loops).astype(dtype)
 
 

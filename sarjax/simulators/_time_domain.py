@@ -48,7 +48,7 @@ from .. import geometry
 from .._numerics.phasor import _sin_cos, unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
-from ._base import AbstractSimulator
+from ._base import AbstractPlan, AbstractSimulator, Cost
 
 _TWO_PI = 2 * jnp.pi
 NON_STOP_AND_GO_ITERATIONS = 3
@@ -250,6 +250,27 @@ def _lift_over_pulses(kernel, pulses, pulse_chunk):
     return jax.lax.map(kernel, pulses, batch_size=pulse_chunk)
 
 
+class TimeDomainPlan(AbstractPlan):
+    """Whether the general kernel (squint, moving scatterers, non-stop-and-go) runs:
+    False for a broadside radar, static scatterers and stop-and-go, which runs the
+    broadside program unchanged."""
+
+    general: bool = eqx.field(static=True)
+
+
+def needs_general_kernel(radar, scene, stop_and_go) -> bool:
+    """Whether the exact model needs its general kernel for these inputs (traced
+    values: yes)."""
+    general = not stop_and_go
+    squint = _concrete(radar.squint)
+    general = general or squint is None or bool(squint != 0)
+    if not isinstance(scene, ReflectivityGrid):
+        for v in (scene.velocity_range, scene.velocity_azimuth):
+            c = _concrete(v)
+            general = general or c is None or bool(np.any(c != 0))
+    return general
+
+
 class TimeDomain(AbstractSimulator):
     """Exact time-domain simulator (seed 000 "Algorithm C"), physics.md §3, §8, §10:
     squint, moving scatterers and (``stop_and_go=False``) the non-stop-and-go delay.
@@ -257,35 +278,58 @@ class TimeDomain(AbstractSimulator):
     Attributes:
         stop_and_go: True (default): the echo range is the range at the transmit time;
             False: the two-way delay of seed 004 eq. 3 (see the module docstring).
-        general: whether the kernel handles squint and moving scatterers (set by
-            ``prepare()`` from the concrete inputs: False for a broadside radar, static
-            scatterers and stop-and-go, which runs the broadside program unchanged).
         pulse_chunk: pulses evaluated together (vmapped); bounds memory. None = auto.
         scatterer_chunk: scatterers evaluated together per scan step. None = auto.
         memory_budget: bytes allowed for the kernel's intermediate arrays (auto chunks).
     """
 
+    names: ClassVar[tuple[str, ...]] = ("time_domain",)
+    physics: ClassVar[str] = "physics.md §3, §8, §10 (seed 000 eq. 19–20; seed 004 eq. 1–5)"
+    motion: ClassVar[str] = "any"
     supports_squint: ClassVar[bool] = True
     supports_moving_targets: ClassVar[bool] = True
+    exact: ClassVar[bool] = True
+    pulse_local: ClassVar[bool] = True
+    in_auto: ClassVar[bool] = True
 
     stop_and_go: bool = eqx.field(static=True, default=True)
     pulse_chunk: int | None = eqx.field(static=True, default=None)
     scatterer_chunk: int | None = eqx.field(static=True, default=None)
     memory_budget: int = eqx.field(static=True, default=256 * 2**20)
-    general: bool | None = eqx.field(static=True, default=None)
 
-    def prepare(self, radar, scene, acquisition):
+    def prepare(self, radar, scene, acquisition) -> TimeDomainPlan:
         """Decide (eagerly) whether the general kernel is needed."""
-        if self.general is not None:
-            return self
-        general = not self.stop_and_go
-        squint = _concrete(radar.squint)
-        general = general or squint is None or bool(squint != 0)
-        if not isinstance(scene, ReflectivityGrid):
-            for v in (scene.velocity_range, scene.velocity_azimuth):
-                c = _concrete(v)
-                general = general or c is None or bool(np.any(c != 0))
-        return dataclasses.replace(self, general=general)
+        return TimeDomainPlan(needs_general_kernel(radar, scene, self.stop_and_go))
+
+    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+        """Per pulse chunk a (pulses, scatterers, range) complex chirp table (its real
+        delay and phase fused into it; XLA holds ≈ 1 table, counted twice), the padded
+        scatterer arrays and the accumulators."""
+        n_r, n_s = acquisition.num_range, scene.num_scatterers
+        pulse, scat = self.chunks(acquisition.num_pulses, n_r, n_s, dtype)
+        item = np.dtype(dtype).itemsize
+        table = pulse * scat * n_r * item
+        padded = (-(-n_s // scat)) * scat * 6 * 8
+        return int(2 * table + padded + 2 * pulse * n_r * item)
+
+    def smaller_chunks(self, plan, acquisition, scene, dtype):
+        """Fewer pulses at a time first (the scatterer chunk sets the speed), then fewer
+        scatterers."""
+        n, n_r, n_s = acquisition.num_pulses, acquisition.num_range, scene.num_scatterers
+        pulse, scat = self.chunks(n, n_r, n_s, dtype)
+        while pulse > 1:
+            pulse //= 2
+            yield dataclasses.replace(self, pulse_chunk=pulse, scatterer_chunk=scat)
+        while scat > 1:
+            scat //= 2
+            yield dataclasses.replace(self, pulse_chunk=1, scatterer_chunk=scat)
+
+    def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
+        """≈ 15 M (complex128) / 40 M (complex64) scatterer·sample per second
+        (fused kernel, ../shared/spec/platform.md), compile ≈ 0.5 s."""
+        rate = 40e6 if np.dtype(dtype) == np.complex64 else 15e6
+        work = acquisition.num_pulses * acquisition.num_range * scene.num_scatterers
+        return Cost(compile=0.5, steady=work / rate)
 
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
@@ -300,7 +344,7 @@ class TimeDomain(AbstractSimulator):
         )
         return int(pulse), int(scat)
 
-    def __call__(self, radar, scene, motion, acquisition, dtype):
+    def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if isinstance(scene, ReflectivityGrid):
             scene = scene.to_points()
         real = jnp.finfo(dtype).dtype
@@ -308,7 +352,7 @@ class TimeDomain(AbstractSimulator):
         horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
         pulses = (x_pulse, horizontal, vertical, pointing)
         targets = (scene.azimuth, scene.range, scene.height, scene.reflectivity)
-        if self.general is not False:
+        if plan.general:
             targets = targets + (scene.velocity_range, scene.velocity_azimuth)
         pulse_chunk, scat_chunk = self.chunks(
             acquisition.num_pulses, acquisition.num_range, scene.num_scatterers, dtype

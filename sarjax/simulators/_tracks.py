@@ -1,0 +1,217 @@
+"""Track models of the Fourier-domain engine: what differs between the ideal 2-D,
+small-deviation ("Algorithm A") and moderate-deviation ("Algorithm B") simulators, at any
+squint (φ_d = 0 is broadside; seed 000 §2–3, seed 002 §2–3; physics.md §4–8).
+
+The engine (``_fourier``) synthesises ``Σ_j F_j(ξ) e^{−jκ(ξ, η) r_j}`` and assembles the
+pulses; a track supplies
+
+* ``kappa``: the range-synthesis wavenumber (``√(η̄² − ξ²) − k₀``, or B's
+  ``κ_B = √(η̄² − ξ²) − √(k₀² − ξ²)``),
+* ``modulate_scene``: a phase on the scene (A: ``γ̃ = γ exp[−j k₀ cos φ_d ψ(x_c, r)]``, ψ at
+  the beam-centre pulse ``x_c = x − r tan φ_d``),
+* ``line_sets``: B's along-track part per range line — ``G_A`` in ξ, the coupling
+  ``exp[−j(√(k₀² − ξ²) − k₀ cos φ_d) δr_xr]`` (a Taylor series in the deviation about its
+  mean) and the motion phase ``exp[−j k₀ cos φ_d ψ(x', r_j)]`` in x', back to ξ; and the
+  first-order envelope lines of ψ and of its Doppler shift's migration,
+* ``per_pulse``: whether the scene-centre deviation enters as the per-pulse factor
+  ``exp[−j(k₀ cos φ_d + η / cos φ_d) δr(x')]`` (exact at ξ_d for a constant deviation),
+* ``approximation_budgets``: the phase budgets of what it neglects (below).
+
+Budgets over the pulses within the squinted main lobe (``_budgets.LobeGeometry``; with
+``c = r/R_n`` the cosine of the look direction, ``c_d = cos φ_d``, ``a = x' − x``):
+
+* straight: ``epsilon_motion = (4π/λ) max|δr_xr|`` (the deviation is not modelled).
+* small deviation: ``epsilon_11 = (4π/λ) max|R − R_n − c_d δr_xr|`` (the coupling, seed
+  eq. 11; at squint first order in the beam angle); ``epsilon_12 = η_max max(|ψ|/c +
+  |δr||1/c − 1/c_d|)`` (the envelope of ψ, seed eq. 12); ``epsilon_13 = (4π/λ) c_d
+  max|ψ(x', r) − ψ(x_c, r)|`` (ψ moved onto the scene, seed eq. 13).
+* moderate deviation: ``epsilon_11`` = the coupling left by the order-n Taylor series
+  over the PRF band about ξ_d, ``(α_max max|δ − δ̄|)^{n+1}/(n+1)!``, plus
+  ``(4π/λ) max|R − R_n − δr_xr r/R_n|``; ``epsilon_12`` = the squared first-order envelope
+  terms over 2 (``|ψ|/c`` and the migration ``c_d |a| |∂ψ/∂x'| / c²``, both corrected)
+  plus the uncorrected ones: ``|δr||1/c − 1/c_d|`` and the migration of the coupling's
+  Doppler shift, ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``.
+* every track: the pointing expansion of its order (``_budgets.pointing_budget``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .. import geometry
+from .._numerics.phasor import unit_phasor
+from . import _fourier_engine as engine
+from ._budgets import PHASE_THRESHOLD, Budget, at_pulse, pointing_budget
+
+
+class AbstractTrack(eqx.Module):
+    """A track model (module docstring). Stateless; the simulator's options are passed
+    in."""
+
+    kind: ClassVar[str] = "straight"
+    per_pulse: ClassVar[bool] = False
+
+    def kappa(self, radar, xi, eta):
+        """κ(ξ, η) [rad/m] of the range synthesis."""
+        return engine.kappa_full(radar, xi, eta)
+
+    def modulate_scene(self, ctx, gamma, xs, rs, hs):
+        """The scene as the engine synthesises it (default: unchanged)."""
+        return gamma
+
+    def line_sets(self, ctx, sim, spectrum, column_weight, weights):
+        """(line sets, η-weighted set) when the pattern precedes the motion phase; None
+        when the pattern is a per-ξ factor of one synthesised set (default)."""
+        return None
+
+    def pointing_order(self, sim) -> int:
+        """The order of the pointing expansion the engine runs."""
+        return sim.pointing_order
+
+    def phase_budgets(self, sim, lobe) -> list[Budget]:
+        """The phase budgets of the deviation terms this track neglects."""
+        return []
+
+    def approximation_budgets(self, sim, radar, lobe):
+        """Phase budgets and the pointing budget; (budgets, max|δ_az| L/λ)."""
+        budgets = self.phase_budgets(sim, lobe)
+        pointing, ratio = pointing_budget(radar, lobe.pointing, self.pointing_order(sim))
+        return budgets + [pointing], ratio
+
+
+class StraightTrack(AbstractTrack):
+    """The nominal straight track: no deviation, no pointing error modelled."""
+
+    kind: ClassVar[str] = "straight"
+
+    def pointing_order(self, sim) -> int:
+        return 0
+
+    def phase_budgets(self, sim, lobe):
+        return [Budget("epsilon_motion", lobe.k0 * lobe.lobe_max(lobe.los), PHASE_THRESHOLD,
+                       "(4π/λ) max|δr_xr|: the deviation is not modelled")]
+
+
+class SmallDeviationTrack(AbstractTrack):
+    """Small deviations, "Algorithm A" (seed 000 §2.1, §3.1; seed 002 §2, Fig. 3)."""
+
+    kind: ClassVar[str] = "small"
+    per_pulse: ClassVar[bool] = True
+
+    def modulate_scene(self, ctx, gamma, xs, rs, hs):
+        # γ̃ = γ exp[−j k₀ cos φ_d ψ(x_c, r)], ψ at the beam-centre pulse x_c = x − r tan φ_d
+        x_beam = xs - rs * ctx.tan_d
+        dy_s = engine.interp_motion(ctx.horizontal, x_beam, ctx.x_pulses[0], ctx.dx)
+        dz_s = engine.interp_motion(ctx.vertical, x_beam, ctx.x_pulses[0], ctx.dx)
+        psi_s = geometry.range_variant_deviation(dy_s, dz_s, rs, hs, ctx.radar)
+        return gamma * unit_phasor(-ctx.k0 * ctx.cos_d * psi_s)
+
+    def phase_budgets(self, sim, lobe):
+        c_d = math.cos(lobe.squint)
+        slope_mismatch = np.abs(lobe.delta_r) * np.abs(1 / lobe.cos_look - 1 / c_d)
+        psi_beam = at_pulse(lobe.psi, lobe.xs - lobe.rs * math.tan(lobe.squint), lobe.x_p,
+                            lobe.dx)  # ψ at the beam-centre pulse
+        return [
+            Budget("epsilon_11", lobe.k0 * lobe.lobe_max(lobe.exact - lobe.nominal
+                                                         - c_d * lobe.los),
+                   PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"),
+            Budget("epsilon_12", lobe.eta_max * lobe.lobe_max(
+                np.abs(lobe.psi) / lobe.cos_look + slope_mismatch), PHASE_THRESHOLD,
+                "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)"),
+            Budget("epsilon_13", lobe.k0 * c_d * lobe.lobe_max(lobe.psi - psi_beam[None, :]),
+                   PHASE_THRESHOLD,
+                   "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed eq. 13; seed 002 eq. 10)"),
+        ]
+
+
+class ModerateDeviationTrack(AbstractTrack):
+    """Moderate deviations, "Algorithm B" (seed 000 §2.2, §3.2, eq. 14–18, 39–47; seed 002
+    §3.2, Fig. 14–15), the range accumulation done as an inverse Stolt sum."""
+
+    kind: ClassVar[str] = "moderate"
+    per_pulse: ClassVar[bool] = True
+
+    def kappa(self, radar, xi, eta):
+        return engine.kappa_b(radar, xi, eta)
+
+    def _lines(self, ctx, sim, lines, envelope):
+        """Along-track part of B for one line set (n_lines, n_x); with ``envelope`` the
+        first-order envelope lines ``s(ξ) ψ + R′(ξ) k₀ cos φ_d ∂ψ/∂x'`` instead."""
+        k0, kz, xi, ranges = ctx.k0, ctx.kz, ctx.xi, ctx.ranges
+        lines = lines * unit_phasor(-(kz - k0)[None, :] * ranges[:, None])
+        fill = (ctx.pad, ctx.n_x - ctx.n_pulses - ctx.pad)
+        dy_full = jnp.pad(ctx.horizontal, fill, mode="edge")
+        dz_full = jnp.pad(ctx.vertical, fill, mode="edge")
+        x_full = ctx.x0 + jnp.arange(ctx.n_x) * ctx.dx
+        if ctx.prepared.gridded:
+            h_line = engine.line_height_under_beam(ctx.prepared, x_full, ranges, ctx.tan_d)
+        else:
+            h_line = ctx.prepared.height[:, None]
+        los = geometry.line_of_sight_deviation(
+            dy_full[None, :], dz_full[None, :], ranges[:, None], h_line, ctx.radar.height
+        )  # δr_xr(x', r_j)
+        psi = los - geometry.reference_deviation(dy_full, dz_full, ctx.radar)[None, :]
+        if sim.coupling_order:
+            along = engine.coupled_inverse(lines, los, kz - k0 * ctx.cos_d, sim.coupling_order)
+        else:
+            along = jnp.fft.ifft(lines, axis=1)  # (line, x'): the seed's B
+        along = along * unit_phasor(-k0 * ctx.cos_d * psi)
+        if not envelope:
+            return jnp.fft.fft(along, axis=1)
+        slope = jnp.gradient(psi, axis=1) / ctx.dx
+        spread = (k0 / kz)[None, :] * jnp.fft.fft(along * psi, axis=1)
+        migration = (k0 * ctx.cos_d) * ranges[:, None] * (k0 * xi / kz**3)[None, :]
+        return spread + migration * jnp.fft.fft(along * slope, axis=1)
+
+    def line_sets(self, ctx, sim, spectrum, column_weight, weights):
+        # per pointing order (the pattern precedes the motion phase), and the set the
+        # synthesis multiplies by η: the pattern's η-slope, −j × the envelope lines
+        sets = [self._lines(ctx, sim, spectrum * (column_weight * w)[None, :], False)
+                for w, _ in weights]
+        eta_set = self._lines(ctx, sim, spectrum * (column_weight * weights[0][1])[None, :],
+                              False)
+        if sim.envelope_correction:
+            base = spectrum * (column_weight * weights[0][0])[None, :]
+            eta_set = eta_set - 1j * self._lines(ctx, sim, base, True)
+        return sets, eta_set
+
+    def phase_budgets(self, sim, lobe):
+        squint = lobe.squint
+        c_d = math.cos(squint)
+        k0, dx = lobe.k0, lobe.dx
+        exact_rest = k0 * lobe.lobe_max(lobe.exact - lobe.nominal - lobe.los * lobe.cos_look)
+        if sim.coupling_order:
+            xi_band = k0 * math.sin(squint) + np.linspace(-np.pi / dx, np.pi / dx, 257)
+            alpha_max = float(np.max(np.abs(np.sqrt(k0**2 - xi_band**2) - k0 * c_d)))
+            spread = lobe.lobe_max(lobe.los - np.mean(lobe.los, axis=0, keepdims=True))
+            value = (alpha_max * spread) ** (sim.coupling_order + 1) / math.factorial(
+                sim.coupling_order + 1) + exact_rest
+            meaning = f"coupling after its order-{sim.coupling_order} correction"
+        else:
+            value = k0 * lobe.lobe_max(lobe.exact - lobe.nominal - c_d * lobe.los)
+            meaning = "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"
+        budgets = [Budget("epsilon_11", value, PHASE_THRESHOLD, meaning)]
+        # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n
+        alpha = np.abs(np.sqrt(k0**2 - (k0 * lobe.along / lobe.nominal) ** 2) - k0 * c_d)
+        los_slope = np.gradient(lobe.los, dx, axis=0)
+        psi_slope = np.gradient(lobe.psi, dx, axis=0)
+        cos_look = lobe.cos_look
+        corrected = np.abs(lobe.psi) / cos_look + c_d * np.abs(lobe.along * psi_slope) / (
+            cos_look**2)
+        uncorrected = (np.abs(lobe.delta_r) * np.abs(1 / cos_look - 1 / c_d)
+                       + np.abs(lobe.along) * alpha * np.abs(los_slope) / (k0 * cos_look**2))
+        eta_max = lobe.eta_max
+        if sim.envelope_correction:
+            value = (eta_max * lobe.lobe_max(corrected)) ** 2 / 2 + eta_max * lobe.lobe_max(
+                uncorrected)
+            meaning = "envelope terms after the first-order correction"
+        else:
+            value = eta_max * lobe.lobe_max(corrected + uncorrected)
+            meaning = "η_max max(envelope terms) (seed eq. 12; seed 002 eq. 11)"
+        budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning))
+        return budgets
