@@ -39,6 +39,8 @@ LAYERS = {
     # 2: the simulate layer: choosing, validating and running a simulator.
     "sarjax._simulate": 2,
     "sarjax._memory": 2,
+    "sarjax._memory_plan": 2,
+    "sarjax._sharding": 2,
     "sarjax._validate": 2,
     "sarjax.validity": 2,
     # 3: focusing.
