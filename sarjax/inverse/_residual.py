@@ -4,7 +4,6 @@ the Levenberg–Marquardt solvers."""
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 
 import equinox as eqx
@@ -167,29 +166,13 @@ def pulse_chi2(args, y):
 # ---- one fit's objective -------------------------------------------------------------
 
 
-@dataclasses.dataclass(frozen=True)
-class Objective:
-    """The whitened residual of one fit's windowed compressed data.
-
-    Attributes:
-        problem: the engine problem (support pulses, range window, compression window).
-        data: (azimuth, window) compressed data in the kept samples.
-        model: the bound :class:`MotionModel`.
-        line_of_sight: None, or the (sin ϑ̄, cos ϑ̄) of a line-of-sight-only fit.
-        scales: per-component parameter scales (the solver's variables are params/scale).
-        inv_sigma: √(2/σ²), whitening each real residual.
-        known: (target,) complex reflectivities when they are known, else None.
-        known_ri: the same as (target, 2) Re/Im, or None.
+class Objective(Args):
+    """The residual's arguments for one fit's windowed compressed data (``scales``: of the
+    motion parameters only), with the known (target,) complex reflectivities ``known``
+    (None when estimated; ``reflectivity`` holds them as (target, 2) Re/Im).
     """
 
-    problem: _engine.Problem
-    data: jnp.ndarray
-    model: MotionModel
-    line_of_sight: jnp.ndarray | None
-    scales: dict
-    inv_sigma: jnp.ndarray
     known: np.ndarray | None
-    known_ri: jnp.ndarray | None
 
     @property
     def num_residuals(self):
@@ -203,10 +186,11 @@ class Objective:
             (0 if self.known is not None else 2 * num_targets)
 
     def args(self, scales):
+        """The residual's arguments with the parameter scales ``scales``."""
         return Args(self.problem, self.data, self.model, self.line_of_sight, scales,
-                    self.inv_sigma, self.known_ri)
+                    self.inv_sigma, self.reflectivity)
 
-    def reflectivity(self, params):
+    def start_reflectivity(self, params):
         """(target,) complex: the known reflectivities, or the least-squares ones at
         ``params``."""
         m3 = _setup.motion3(self.model, params, self.problem.azimuth, self.line_of_sight)
@@ -216,7 +200,7 @@ class Objective:
 
     def stage_cost(self, params):
         """½‖r‖² at ``params`` with the least-squares reflectivities."""
-        gamma = self.reflectivity(params)
+        gamma = self.start_reflectivity(params)
         y = {n: params[n] / self.scales[n] for n in self.model.components}
         args = self.args(self.scales)
         if self.known is None:
@@ -229,7 +213,7 @@ class Objective:
     def start(self, params):
         """(y0, args) of a solver started at ``params``, the reflectivities at their
         least-squares values; ``args.scales`` include the reflectivity scale."""
-        gamma = self.reflectivity(params)
+        gamma = self.start_reflectivity(params)
         y0 = {n: jnp.asarray(params[n]) / self.scales[n] for n in self.model.components}
         all_scales = dict(self.scales)
         if self.known is None:
@@ -268,6 +252,6 @@ def make_objective(problem, data_crop, model, los, scales, reflectivity, noise_p
         sigma0_sq = float(noise_power)
     inv_sigma = jnp.asarray(np.sqrt(2.0 / sigma0_sq))
     known = None if reflectivity is None else np.asarray(reflectivity)
-    objective = Objective(problem, data_win, model, los_arr, scales, inv_sigma, known,
-                          known_ri)
+    objective = Objective(problem, data_win, model, los_arr, scales, inv_sigma, known_ri,
+                          known)
     return objective, compressed, sigma0_sq
