@@ -335,17 +335,14 @@ def _ranges(ranges):
 
 
 def method_report(radar, scene, motion):
-    """Yields the validity report of every approximate simulator, fastest first, then the
-    line naming the one ``method='auto'`` would choose."""
-    from ..validity import FASTEST_FIRST, validity
+    """Yields the validity report of every registered simulator (the registry's order),
+    then the line naming the one ``method='auto'`` would choose."""
+    from ..simulators import method_names
+    from ..validity import choose_method, validity
 
-    chosen = None
-    for method in FASTEST_FIRST[:-1]:
-        report = validity(radar, scene, motion, method=method)
-        yield str(report)
-        if chosen is None and report.valid:
-            chosen = method
-    yield f"method='auto' would choose: {chosen or 'time_domain'}"
+    for method in method_names(aliases=False):
+        yield str(validity(radar, scene, motion, method=method))
+    yield f"method='auto' would choose: {choose_method(radar, scene, motion)[0]}"
 
 
 # ---- export, plot -----------------------------------------------------------------------
