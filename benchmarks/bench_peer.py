@@ -96,7 +96,6 @@ import jax.numpy as jnp
 import numpy as np
 
 import sarjax as sj
-from sarjax import _simulate
 from sarjax.antenna import AbstractPattern
 
 HERE = Path(__file__).resolve().parent
@@ -389,7 +388,7 @@ def measure(fn, max_repeats, sarjax_call_for_aot=None):
 
 def sarjax_methods():
     methods = [("time_domain", "complex128", {}), ("time_domain", "complex64", {})]
-    if "time_domain_nufft" in _simulate._METHODS:
+    if "time_domain_nufft" in sj.simulators.method_names():
         methods += [
             ("time_domain_nufft", "complex128", {}),
             ("time_domain_nufft", "complex64", {}),

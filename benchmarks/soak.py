@@ -49,7 +49,6 @@ import jax.numpy as jnp
 import numpy as np
 
 import sarjax as sj
-from sarjax._simulate import _METHODS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import load_average, machine, replace_section  # noqa: E402
@@ -64,10 +63,7 @@ RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
 
 def methods():
     """One registered name per simulator class."""
-    names = {}
-    for name, cls in _METHODS.items():
-        names.setdefault(cls, name)
-    return sorted(names.values())
+    return sorted(sj.simulators.method_names(aliases=False))
 
 
 # ---- memory and compilations ---------------------------------------------------------
