@@ -214,7 +214,10 @@ def simulate(
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options,
     )
-    return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+    if call.devices:
+        return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+    with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the one named first
+        return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
 
 
 def simulation_memory(

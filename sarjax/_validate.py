@@ -153,22 +153,28 @@ def check_supported(simulator, radar, scene):
     A simulator declares what it implements with the class attributes
     ``supports_squint`` and ``supports_moving_targets`` (default False).
     """
+    from .simulators import _registry
+
     name = type(simulator).__name__
+
+    def those(feature):
+        names = [cls.names[0] for cls in _registry.SIMULATORS if getattr(cls, feature)]
+        return ", ".join(f"'{n}'" for n in names)
+
     squint = _concrete(radar.squint)
-    if squint is not None and squint != 0 and not getattr(simulator, "supports_squint", False):
+    if squint is not None and squint != 0 and not simulator.supports_squint:
         raise ValueError(
             f"radar.squint={float(squint):g} rad: squinted acquisition is not implemented by "
-            f"{name} (use method='time_domain', 'fourier_2d', 'small_deviation', "
-            "'moderate_deviation' or 'high_speed')"
+            f"{name} (use method={those('supports_squint')})"
         )
-    if getattr(simulator, "supports_moving_targets", False):
+    if simulator.supports_moving_targets:
         return
     for field in ("velocity_range", "velocity_azimuth"):
         v = _concrete(getattr(scene, field, None)) if hasattr(scene, field) else None
         if v is not None and np.any(v != 0):
             raise ValueError(
                 f"scene.{field} is non-zero: moving scatterers are not implemented by "
-                f"{name} (use method='time_domain' or 'high_speed')"
+                f"{name} (use method={those('supports_moving_targets')})"
             )
 
 
@@ -244,6 +250,8 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
             )
     if not strict or _concrete(radar.prf) is None:
         return
+    from .simulators import _registry
+
     name = type(simulator).names[0] if type(simulator).names else type(simulator).__name__
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
@@ -253,7 +261,8 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
             text = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
                              for b in broken)
             which = f" (realization {index})" if len(realizations) > 1 else ""
-            exact = "'time_domain' or 'time_domain_nufft'"
+            exact = " or ".join(f"'{cls.names[0]}'" for cls in _registry.SIMULATORS
+                                if cls.exact)
             raise ValueError(
                 f"strict=True: method={name!r} is outside its validity{which}: {text}; "
                 f"use method='auto' or {exact}, or strict=False"

@@ -154,9 +154,9 @@ def test_devices_as_a_list_of_four(four_devices):
     assert four_devices["device_choices"]["one"]["max_difference"] == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="a one-device plan runs on the default device, not "
-                   "on the one device listed in devices=")
 def test_one_listed_device_runs_there(four_devices):
+    """``devices=[d3]`` runs on d3 (a one-device plan is not sharded: it runs under that
+    device as the default)."""
     assert four_devices["device_choices"]["one"]["output_device_ids"] == [3]
 
 
