@@ -129,6 +129,18 @@ class AbstractSimulator(eqx.Module):
         return Cost(float("inf"), float("inf"))
 
 
+class AbstractExactSimulator(AbstractSimulator):
+    """An exact model: any motion, squint and moving scatterers; pulses independent; no
+    approximation budgets (its window budget only)."""
+
+    motion: ClassVar[str] = "any"
+    supports_squint: ClassVar[bool] = True
+    supports_moving_targets: ClassVar[bool] = True
+    exact: ClassVar[bool] = True
+    pulse_local: ClassVar[bool] = True
+    in_auto: ClassVar[bool] = True
+
+
 def concrete_float(value):
     """A Python float of a concrete scalar, or None for a tracer."""
     if is_traced(value):

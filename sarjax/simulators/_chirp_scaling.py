@@ -43,8 +43,7 @@ from .._numerics.interpolation import next_fast_len
 from ..scene import ReflectivityGrid
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import LobeGeometry
-from ._tracks import StraightTrack
+from ._tracks import straight_track_budgets
 
 _TWO_PI = 2 * jnp.pi
 
@@ -105,9 +104,7 @@ class ChirpScaling(AbstractSimulator):
 
     def approximation_budgets(self, radar, scene, motion, acquisition):
         """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
-        lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
-                            float(acquisition.azimuth_center))
-        return StraightTrack().approximation_budgets(None, radar, lobe)
+        return straight_track_budgets(radar, scene, motion, acquisition)
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)

@@ -102,12 +102,10 @@ class AbstractFourierSimulator(AbstractSimulator):
     track: ClassVar = StraightTrack()
     supports_squint: ClassVar[bool] = True
     in_auto: ClassVar[bool] = True
-    # XLA's peak memory of the engine [complex128 elements]: a·n_x n_r + b·n_lines n_x
-    # + c·N_x n_r + d·N_x n_x; least-squares fits over grids and point scenes (N_x
-    # 256–2048, N_r 256–1024, 3–400 range lines), scaled by 1.2–1.5 into upper bounds
-    workspace_factors: ClassVar[tuple[float, float, float, float]] = (4.0, 16.0, 3.0, 0.5)
-    # steady time in FFT2-equivalents of the padded grid (benchmarks/RESULTS.md)
-    fft_equivalents: ClassVar[float] = 15.0
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.motion = cls.track.kind  # what the track models
 
     pointing_order: int = eqx.field(static=True, default=2)
     azimuth_padding: float = eqx.field(static=True, default=1.0)
@@ -145,7 +143,7 @@ class AbstractFourierSimulator(AbstractSimulator):
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         _, n_r, n_x, _ = plan.sizes(acquisition, self.column_block)
-        grids, lines, per_range, per_azimuth = self.workspace_factors
+        grids, lines, per_range, per_azimuth = self.track.workspace_factors
         n = acquisition.num_pulses
         return int(_C128 * (grids * n_x * n_r + lines * engine.range_line_count(scene) * n_x
                             + per_range * n * n_r + per_azimuth * n * n_x))
@@ -154,7 +152,7 @@ class AbstractFourierSimulator(AbstractSimulator):
         _, n_r, n_x, _ = plan.sizes(acquisition, self.column_block)
         # one complex128 FFT2 ≈ 8 ns per element (2560 × 675 in 14 ms); a point scene's
         # direct range synthesis adds one phasor per (line, ξ, η), ≈ 3 ns
-        steady = self.fft_equivalents * 8e-9 * n_x * n_r
+        steady = self.track.fft_equivalents * 8e-9 * n_x * n_r
         if not isinstance(scene, ReflectivityGrid):
             steady += 3e-9 * engine.range_line_count(scene) * n_x * n_r
         return Cost(compile=5.0, steady=steady)
@@ -168,10 +166,7 @@ class Fourier2D(AbstractFourierSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("fourier_2d",)
     physics: ClassVar[str] = "physics.md §4, §8 (seed 000 eq. 7–9; seed 002 eq. 49)"
-    motion: ClassVar[str] = "straight"
     track: ClassVar = StraightTrack()
-    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.15, 3.5, 3.4, 0.13)
-    fft_equivalents: ClassVar[float] = 13.0
 
 
 class SmallDeviation(AbstractFourierSimulator):
@@ -181,10 +176,7 @@ class SmallDeviation(AbstractFourierSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("small_deviation", "algorithm_a")
     physics: ClassVar[str] = "physics.md §5–6, §8 (seed 000 §2.1, §3.1; seed 002 §2)"
-    motion: ClassVar[str] = "small"
     track: ClassVar = SmallDeviationTrack()
-    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.4, 3.0, 2.9, 0.15)
-    fft_equivalents: ClassVar[float] = 15.0
 
 
 class ModerateDeviation(AbstractFourierSimulator):
@@ -196,10 +188,7 @@ class ModerateDeviation(AbstractFourierSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("moderate_deviation", "algorithm_b")
     physics: ClassVar[str] = "physics.md §5–6, §8 (seed 000 §2.2, §3.2; seed 002 §3.2)"
-    motion: ClassVar[str] = "moderate"
     track: ClassVar = ModerateDeviationTrack()
-    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.75, 16.5, 1.5, 0.2)
-    fft_equivalents: ClassVar[float] = 37.0
 
 
 # --------------------------------------------------------------------------------------

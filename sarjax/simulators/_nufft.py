@@ -43,7 +43,7 @@ from .. import geometry
 from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import unit_phasor
 from ..scene import ReflectivityGrid
-from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._base import AbstractExactSimulator, AbstractPlan, Cost
 from ._fourier_engine import chirp_spectrum
 from ._time_domain import echo_range_offset, needs_general_kernel, pattern_argument
 
@@ -147,7 +147,7 @@ class NUFFTPlan(AbstractPlan):
     general: bool = eqx.field(static=True)
 
 
-class TimeDomainNUFFT(AbstractSimulator):
+class TimeDomainNUFFT(AbstractExactSimulator):
     """Exact time-domain model, one non-uniform FFT per pulse (module docstring).
 
     ``method="time_domain_nufft"``. Same geometry, pattern, carrier phase, squint, moving
@@ -172,12 +172,6 @@ class TimeDomainNUFFT(AbstractSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("time_domain_nufft",)
     physics: ClassVar[str] = "physics.md §3, §8, §10 (the exact model by a type-1 NUFFT)"
-    motion: ClassVar[str] = "any"
-    supports_squint: ClassVar[bool] = True
-    supports_moving_targets: ClassVar[bool] = True
-    exact: ClassVar[bool] = True
-    pulse_local: ClassVar[bool] = True
-    in_auto: ClassVar[bool] = True
 
     tolerance: float = eqx.field(static=True, default=1e-4)
     range_bands: int = eqx.field(static=True, default=2)

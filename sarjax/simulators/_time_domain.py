@@ -48,7 +48,7 @@ from .. import geometry
 from .._numerics.phasor import _sin_cos, unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
-from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._base import AbstractExactSimulator, AbstractPlan, Cost
 
 _TWO_PI = 2 * jnp.pi
 NON_STOP_AND_GO_ITERATIONS = 3
@@ -271,7 +271,7 @@ def needs_general_kernel(radar, scene, stop_and_go) -> bool:
     return general
 
 
-class TimeDomain(AbstractSimulator):
+class TimeDomain(AbstractExactSimulator):
     """Exact time-domain simulator (seed 000 "Algorithm C"), physics.md §3, §8, §10:
     squint, moving scatterers and (``stop_and_go=False``) the non-stop-and-go delay.
 
@@ -285,12 +285,6 @@ class TimeDomain(AbstractSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("time_domain",)
     physics: ClassVar[str] = "physics.md §3, §8, §10 (seed 000 eq. 19–20; seed 004 eq. 1–5)"
-    motion: ClassVar[str] = "any"
-    supports_squint: ClassVar[bool] = True
-    supports_moving_targets: ClassVar[bool] = True
-    exact: ClassVar[bool] = True
-    pulse_local: ClassVar[bool] = True
-    in_auto: ClassVar[bool] = True
 
     stop_and_go: bool = eqx.field(static=True, default=True)
     pulse_chunk: int | None = eqx.field(static=True, default=None)

@@ -46,7 +46,7 @@ import numpy as np
 from .. import geometry
 from .._numerics.phasor import unit_phasor
 from . import _fourier_engine as engine
-from ._budgets import PHASE_THRESHOLD, Budget, at_pulse, pointing_budget
+from ._budgets import PHASE_THRESHOLD, Budget, LobeGeometry, at_pulse, pointing_budget
 
 
 class AbstractTrack(eqx.Module):
@@ -55,6 +55,13 @@ class AbstractTrack(eqx.Module):
 
     kind: ClassVar[str] = "straight"
     per_pulse: ClassVar[bool] = False
+    # XLA's peak memory of the engine with this track [complex128 elements]:
+    # a·n_x n_r + b·n_lines n_x + c·N_x n_r + d·N_x n_x; least-squares fits over grids and
+    # point scenes (N_x 256–2048, N_r 256–1024, 3–400 range lines), scaled by 1.2–1.5
+    # into upper bounds (tests/test_memory.py)
+    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.15, 3.5, 3.4, 0.13)
+    # steady time in FFT2-equivalents of the padded grid (benchmarks/RESULTS.md)
+    fft_equivalents: ClassVar[float] = 13.0
 
     def kappa(self, radar, xi, eta):
         """κ(ξ, η) [rad/m] of the range synthesis."""
@@ -97,11 +104,21 @@ class StraightTrack(AbstractTrack):
                        "(4π/λ) max|δr_xr|: the deviation is not modelled")]
 
 
+def straight_track_budgets(radar, scene, motion, acquisition):
+    """The straight track's budgets (``epsilon_motion``, pointing of order 0) of a
+    simulator that models neither deviation nor pointing error."""
+    lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
+                        float(acquisition.azimuth_center))
+    return StraightTrack().approximation_budgets(None, radar, lobe)
+
+
 class SmallDeviationTrack(AbstractTrack):
     """Small deviations, "Algorithm A" (seed 000 §2.1, §3.1; seed 002 §2, Fig. 3)."""
 
     kind: ClassVar[str] = "small"
     per_pulse: ClassVar[bool] = True
+    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.4, 3.0, 2.9, 0.15)
+    fft_equivalents: ClassVar[float] = 15.0
 
     def modulate_scene(self, ctx, gamma, xs, rs, hs):
         # γ̃ = γ exp[−j k₀ cos φ_d ψ(x_c, r)], ψ at the beam-centre pulse x_c = x − r tan φ_d
@@ -135,6 +152,8 @@ class ModerateDeviationTrack(AbstractTrack):
 
     kind: ClassVar[str] = "moderate"
     per_pulse: ClassVar[bool] = True
+    workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.75, 16.5, 1.5, 0.2)
+    fft_equivalents: ClassVar[float] = 37.0
 
     def kappa(self, radar, xi, eta):
         return engine.kappa_b(radar, xi, eta)
