@@ -147,11 +147,16 @@ def check_finite_scalar(value, name):
         raise ValueError(f"{name}={v} is not finite")
 
 
-def check_supported(simulator, radar, scene):
+def _motion_is_ideal(motion) -> bool:
+    return motion is None or motion.is_ideal
+
+
+def check_supported(simulator, radar, scene, motion=None):
     """Refuse model features a simulator does not implement (never ignore them silently).
 
     A simulator declares what it implements with the class attributes
-    ``supports_squint`` and ``supports_moving_targets`` (default False).
+    ``supports_squint``, ``supports_moving_targets`` (default False) and
+    ``accepts_motion`` (False: a straight-track model that refuses any motion).
     """
     from .simulators import _registry
 
@@ -167,6 +172,11 @@ def check_supported(simulator, radar, scene):
             f"radar.squint={float(squint):g} rad: squinted acquisition is not implemented by "
             f"{name} (use method={those('supports_squint')})"
         )
+    if not simulator.accepts_motion and not _motion_is_ideal(motion):
+        raise ValueError(
+            f"method={type(simulator).names[0]!r} simulates a straight track: motion errors "
+            f"are not implemented (use method={those('accepts_motion')})"
+        )
     if simulator.supports_moving_targets:
         return
     for field in ("velocity_range", "velocity_azimuth"):
@@ -179,6 +189,12 @@ def check_supported(simulator, radar, scene):
 
 
 # ---- checks that need the whole call (strict mode) ------------------------------------
+
+
+class ValidityWarning(UserWarning):
+    """A simulation outside one of its method's validity budgets (:func:`sarjax.validity`):
+    the data may be inaccurate; the message names each budget broken, its value and
+    threshold, and the methods to use instead. ``strict=True`` raises instead."""
 
 
 class SwathWarning(UserWarning):
@@ -220,14 +236,13 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
     * **Swath**: when no scatterer's echo can reach the range window
       (:func:`echoes_outside_window`) the data would be identically zero: a
       :class:`SwathWarning`; strict: a ValueError, also when only some scatterers miss it.
-    * **Budgets** (strict only): every budget the simulator declares
-      (``simulator.budgets``, :func:`sarjax.validity`) must hold for every realization:
-      for the Fourier-domain methods the Doppler sampling of the principal band (a PRF
-      below the echoes' Doppler band, :func:`doppler_band`, loses the folded part) and
-      the approximation budgets, with the simulator's own options. The exact models
-      sample the echo at the pulses, aliasing included: only their range window counts.
-      Not a warning by default: undersampled small configurations (PRF ≪ 2v/L) are a
-      deliberate, cheap setting for tests of gradients and shapes.
+    * **Budgets**: every budget the simulator declares (``simulator.budgets``,
+      :func:`sarjax.validity`) must hold for every realization: for the Fourier-domain
+      methods their azimuth grid (aliases, wrap, extent) and the approximation budgets,
+      with the simulator's own options. Outside them a :class:`ValidityWarning` names
+      each budget, its value and threshold, and the methods to use instead; strict: a
+      ValueError. The exact models sample the echo at the pulses, aliasing included:
+      only their range window counts.
 
     Checks of traced values are skipped.
     """
@@ -248,25 +263,45 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
                 f"strict=True: {int(outside.sum())} of {outside.size} scatterers' echoes "
                 f"miss the {window} (scene.range = {np.unique(r)[:5]} m …)"
             )
-    if not strict or _concrete(radar.prf) is None:
+    traced = any(isinstance(v, jax.core.Tracer)
+                 for v in jax.tree_util.tree_leaves((radar, scene, motion)))
+    if traced:  # inside a user's transformation (a gradient): judged on concrete calls
         return
-    from .simulators import _registry
-
-    name = type(simulator).names[0] if type(simulator).names else type(simulator).__name__
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
         report = simulator.budgets(radar, scene, realization, acquisition)
         broken = [b for b in report.violated if b.name != "range_window"]
         if broken:
-            text = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
-                             for b in broken)
             which = f" (realization {index})" if len(realizations) > 1 else ""
-            exact = " or ".join(f"'{cls.names[0]}'" for cls in _registry.SIMULATORS
-                                if cls.exact)
-            raise ValueError(
-                f"strict=True: method={name!r} is outside its validity{which}: {text}; "
-                f"use method='auto' or {exact}, or strict=False"
-            )
+            message = _outside_validity(simulator, broken, which, radar, scene, realization,
+                                        acquisition)
+            if strict:
+                raise ValueError(f"strict=True: {message}, or strict=False")
+            warnings.warn(message, ValidityWarning, stacklevel=4)
+            return
+
+
+def _outside_validity(simulator, broken, which, radar, scene, motion, acquisition) -> str:
+    """The message of a run outside its budgets: each budget broken (value, threshold,
+    meaning) and the methods to use instead (the cheapest valid one, and the exact)."""
+    from .simulators import _registry
+    from .validity import choose_method
+
+    name = type(simulator).names[0] if type(simulator).names else type(simulator).__name__
+    text = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
+                     for b in broken)
+    instead = [cls.names[0] for cls in _registry.SIMULATORS if cls.exact]
+    try:
+        chosen = choose_method(radar, scene, motion, num_pulses=acquisition.num_pulses,
+                               num_range=acquisition.num_range,
+                               near_range=acquisition.near_range,
+                               azimuth_center=float(acquisition.azimuth_center))[0]
+    except ValueError:  # a scene no candidate can prepare: the exact models remain
+        chosen = None
+    if chosen is not None and chosen != name:
+        instead = [chosen] + [m for m in instead if m != chosen]
+    return (f"method={name!r} is outside its validity{which}: {text}; use method="
+            + " or ".join(f"{m!r}" for m in instead))
 
 
 def check_focus(radar, raw, motion):

@@ -637,3 +637,51 @@ def phase_error_rms(test, reference, *, within_db: float = 20.0) -> float:
     mask = mag >= peak * 10.0 ** (-within_db / 20.0)
     phase = np.angle(a[mask] * np.conj(b[mask]))
     return float(np.sqrt(np.mean(phase**2)))
+
+
+def azimuth_ambiguity_ratio(radar, processed_bandwidth=None, *, orders=64, samples=2001):
+    """Azimuth-ambiguity-to-signal ratio (AASR, linear) of a radar and its pattern:
+
+        AASR = Σ_{k≠0} ∫_{−B/2}^{B/2} |H(f + k·PRF)|² df / ∫_{−B/2}^{B/2} |H(f)|² df,
+
+    ``H(f)`` the azimuth spectrum of a point target's echo at Doppler ``f`` from the
+    centroid ``2v sin φ_d / λ``: the two-way pattern at the stationary point,
+    ``W²(u*)``, ``u* = (L/λ)(T − t)/(1 + tT)``, ``t = ξ/√(k₀² − ξ²)``,
+    ``ξ = k₀ sin φ_d + 2π f / v``, times the stationary-phase amplitude
+    ``(k₀² − ξ²)^{−3/4}``. The exact model samples the echo at the PRF, so the energy at
+    ``f + k·PRF`` folds onto ``f``: after azimuth compression over the band ``B`` it
+    appears as ghosts displaced by ``k·PRF·λr/(2v)`` along track, with this energy
+    relative to the target's.
+
+    Args:
+        radar: :class:`~sarjax.Radar` (its pattern, PRF, velocity, wavelength, squint).
+        processed_bandwidth: B [Hz] (default: the PRF).
+        orders: ambiguity orders ±1 … ±orders summed.
+        samples: integration points per band.
+
+    Returns:
+        The AASR (linear; ``10 log10`` for dB).
+    """
+    import jax.numpy as jnp
+
+    prf = float(radar.prf)
+    band = prf if processed_bandwidth is None else float(processed_bandwidth)
+    v = float(radar.velocity)
+    k0 = float(radar.wavenumber)
+    squint = float(np.asarray(radar.squint))
+    ratio = float(radar.antenna_length) / float(radar.wavelength)
+    f = np.linspace(-band / 2, band / 2, samples)
+
+    def energy(shift):
+        xi = k0 * math.sin(squint) + 2 * math.pi * (f + shift) / v
+        inside = np.abs(xi) < k0
+        kz2 = np.where(inside, k0**2 - xi**2, 1.0)
+        t = xi / np.sqrt(kz2)
+        u = ratio * (math.tan(squint) - t) / (1 + t * math.tan(squint))
+        gain = np.asarray(radar.pattern(jnp.asarray(u)))
+        spectrum = np.where(inside, np.abs(gain) ** 2 / kz2**1.5, 0.0)
+        return float(np.trapezoid(spectrum, f))
+
+    signal = energy(0.0)
+    ghosts = sum(energy(k * prf) for k in range(-orders, orders + 1) if k)
+    return ghosts / signal

@@ -82,8 +82,11 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=No
 def choose_method(radar, scene, motion=None, *, num_pulses=None, num_range=None,
                   near_range=None, azimuth_center=0.0, dtype="complex128",
                   **options) -> tuple[str, dict]:
-    """``method="auto"``: the cheapest approximate method whose budgets hold, by each
-    simulator's cost model (``AbstractSimulator.cost``), else the cheapest exact one.
+    """``method="auto"``: the cheapest method whose budgets hold, by each simulator's cost
+    model (``AbstractSimulator.cost``: compile and steady time on a 2-core CPU, the
+    compile time counted, as for a single call). The exact models are always valid, so
+    for a few scatterers on a small grid they are the cheapest (no FFT program to
+    compile); for extended scenes the Fourier-domain methods are.
 
     Candidates are the registered simulators that declare ``in_auto`` and support the
     scene (squint, moving scatterers). Returns (name, {name: Validity}).
@@ -103,11 +106,10 @@ def choose_method(radar, scene, motion=None, *, num_pulses=None, num_range=None,
         if not report[name].valid:
             continue
         try:
-            plan = simulator.prepare(radar, scene, acquisition)
+            plan = simulator.prepare(radar, scene, acquisition, motion)
         except ValueError:  # e.g. a grid off the pulse lattice: not this method
             continue
-        cost = simulator.cost(plan, radar, scene, acquisition, dtype).total()
-        costs[name] = (cls.exact, cost)
+        costs[name] = simulator.cost(plan, radar, scene, acquisition, dtype).total()
     if not costs:
         return "time_domain", report
     return min(costs, key=costs.get), report

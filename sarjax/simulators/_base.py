@@ -66,6 +66,8 @@ class AbstractSimulator(eqx.Module):
             its own, so pulses can be split across devices).
         in_auto: ``method="auto"`` may choose it (its approximation budgets are measured
             against the exact model).
+        accepts_motion: False for a straight-track model that refuses any motion (rather
+            than ignoring it).
     """
 
     names: ClassVar[tuple[str, ...]] = ()
@@ -76,6 +78,7 @@ class AbstractSimulator(eqx.Module):
     exact: ClassVar[bool] = False
     pulse_local: ClassVar[bool] = False
     in_auto: ClassVar[bool] = False
+    accepts_motion: ClassVar[bool] = True
 
     @abc.abstractmethod
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
@@ -85,11 +88,12 @@ class AbstractSimulator(eqx.Module):
         """Simulate raw data (see :func:`sarjax.simulate`); without ``plan`` the plan is
         made here from the concrete inputs."""
         if plan is None:
-            plan = self.prepare(radar, scene, acquisition)
+            plan = self.prepare(radar, scene, acquisition, motion)
         return self.simulate(plan, radar, scene, motion, acquisition, dtype)
 
-    def prepare(self, radar, scene, acquisition) -> AbstractPlan:
-        """Eager checks and static sizes from concrete values: the private plan."""
+    def prepare(self, radar, scene, acquisition, motion=None) -> AbstractPlan:
+        """Eager checks and static sizes from concrete values: the private plan (the
+        motion, when given, bounds the line-of-sight deviation)."""
         return NoPlan()
 
     # ---- declarations evaluated on concrete inputs ----------------------------------
@@ -98,16 +102,21 @@ class AbstractSimulator(eqx.Module):
         """The budgets of the approximations this method makes (none for exact ones)."""
         return (), 0.0
 
-    def budgets(self, radar, scene, motion, acquisition) -> _budgets.Validity:
-        """Every budget of this run: window and sampling, then the approximations'.
+    def window_budgets(self, radar, scene, motion, acquisition):
+        """Budgets of the grid the method synthesises on (default: none; the
+        Fourier-domain methods: its azimuth aliases, wrap and extent)."""
+        return ()
 
-        Exact methods report the range window only (they sample the echo at the pulses,
-        aliasing included); the others add the Doppler sampling of the principal band
-        and their approximation budgets (:mod:`sarjax.simulators._budgets`).
+    def budgets(self, radar, scene, motion, acquisition) -> _budgets.Validity:
+        """Every budget of this run: the approximations', then window and sampling.
+
+        Every method reports the range window (scatterers whose echo misses it are not
+        recorded: only a window that records nothing is a violation); the Fourier-domain
+        methods add their grid's (``window_budgets``) and the approximate ones their
+        approximation budgets (:mod:`sarjax.simulators._budgets`).
         """
         found = list(_budgets.range_window_budget(radar, scene, motion, acquisition))
-        if not self.exact:
-            found += _budgets.doppler_sampling_budget(radar, scene, acquisition)
+        found += self.window_budgets(radar, scene, motion, acquisition)
         approximations, pointing_ratio = self.approximation_budgets(
             radar, scene, motion, acquisition)
         return _budgets.Validity(self.names[0], tuple(approximations) + tuple(found),

@@ -41,8 +41,10 @@ import numpy as np
 
 from .._numerics.interpolation import next_fast_len
 from ..scene import ReflectivityGrid
+from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._budgets import azimuth_budgets
 from ._tracks import straight_track_budgets
 
 _TWO_PI = 2 * jnp.pi
@@ -62,13 +64,17 @@ class ChirpScalingPlan(AbstractPlan):
 
     azimuth_pad: int = eqx.field(static=True)
     range_fft_size: int = eqx.field(static=True)
+    included: jnp.ndarray
 
 
 class ChirpScaling(AbstractSimulator):
     """Inverse chirp-scaling simulator (seed 003), see the module docstring.
 
     Attributes:
-        azimuth_padding: extra azimuth samples on each side, in footprints X.
+        azimuth_padding: None (default): the azimuth grid holds every scatterer's echo
+            support that reaches the window, within the principal Doppler band
+            (``_extent.work_grid``); a number: that many footprints X on each side
+            (0: the seed's circular setup; ``azimuth_window`` says what wraps).
         reference_range: r_ref [m]; None = the middle of the range window (the listing's
             ``r_ref``).
     """
@@ -81,11 +87,12 @@ class ChirpScaling(AbstractSimulator):
     # the range-Doppler approximations (chirp rate at r_ref, quadratic phase in η) have
     # no measured budget yet: ``method="auto"`` does not choose it
     in_auto: ClassVar[bool] = False
+    accepts_motion: ClassVar[bool] = False
 
-    azimuth_padding: float = eqx.field(static=True, default=1.0)
+    azimuth_padding: float | None = eqx.field(static=True, default=None)
     reference_range: float | None = eqx.field(static=True, default=None)
 
-    def prepare(self, radar, scene, acquisition) -> ChirpScalingPlan:
+    def prepare(self, radar, scene, acquisition, motion=None) -> ChirpScalingPlan:
         """Check a grid scene; fix the padding and FFT sizes from concrete values."""
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
@@ -96,11 +103,20 @@ class ChirpScaling(AbstractSimulator):
                     f"ReflectivityGrid range spacing {np.diff(rg).mean():.6g} m differs "
                     f"from the range sample spacing c/(2 f_s) = {dr:.6g} m "
                     "(method='chirp_scaling')")
-        # an echo's extent along track: the footprint, or where its Doppler leaves the PRF
-        # band; in range the migration at the band edge
-        pad, n_r = engine.work_grid(radar, scene, acquisition, self.azimuth_padding,
-                                    doppler_limited=True, migration=True)
-        return ChirpScalingPlan(pad, n_r)
+        # an echo's extent along track: its support, or (a fixed padding) the footprint
+        # or where its Doppler leaves the PRF band; in range the migration at the band edge
+        _, grid = self.grid(radar, scene, motion, acquisition)
+        return ChirpScalingPlan(grid.lead, grid.n_r, jnp.asarray(grid.included, dtype=float))
+
+    def grid(self, radar, scene, motion, acquisition):
+        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
+        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
+                                         bands=0)
+        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
+                                support, doppler_limited=True, migration=True)
+
+    def window_budgets(self, radar, scene, motion, acquisition):
+        return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
 
     def approximation_budgets(self, radar, scene, motion, acquisition):
         """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
@@ -120,6 +136,7 @@ class ChirpScaling(AbstractSimulator):
         if not motion.is_ideal:
             raise ValueError("method='chirp_scaling' simulates a straight track: motion errors "
                              "are not implemented (use method='moderate_deviation')")
+        scene = extent.within_support(scene, plan.included)
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
         pad, n_r = plan.azimuth_pad, plan.range_fft_size
         n_x = next_fast_len(n_pulses + 2 * pad)

@@ -23,7 +23,7 @@ is the broadside one, and the scene stays in closest-approach coordinates, as in
 exact model. φ_d = 0 is broadside, not a separate code path.
 
 The azimuth is synthesised on a window padded by ``azimuth_padding`` footprints on each
-side and the range on ``n_r`` samples (``_fourier_engine.work_grid``), then cropped.
+side and the range on ``n_r`` samples (``_extent.work_grid``), then cropped.
 """
 
 from __future__ import annotations
@@ -32,15 +32,17 @@ from types import SimpleNamespace
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 
 from .. import geometry
 from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import unit_phasor
 from ..scene import ReflectivityGrid
+from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import LobeGeometry
+from ._budgets import LobeGeometry, azimuth_budgets
 from ._tracks import ModerateDeviationTrack, SmallDeviationTrack, StraightTrack
 
 _TWO_PI = 2 * jnp.pi
@@ -59,6 +61,8 @@ class FourierPlan(AbstractPlan):
     azimuth_pad: int = eqx.field(static=True)
     range_fft_size: int = eqx.field(static=True)
     alias_columns: int | None = eqx.field(static=True)
+    bands: int = eqx.field(static=True)
+    included: jnp.ndarray
 
     def sizes(self, acquisition, column_block=None):
         """(azimuth pad, n_r, n_x, column block)."""
@@ -73,8 +77,19 @@ class AbstractFourierSimulator(AbstractSimulator):
     Attributes:
         pointing_order: order n of the pointing-error expansion (0, 1 or 2; seed 000
             eq. 21); 0 ignores δ_az.
-        azimuth_padding: extra azimuth samples on each side, in footprints X (avoids
-            circular wrap of targets' apertures).
+        azimuth_padding: None (default): the azimuth grid holds every scatterer's echo
+            support that reaches the window (``_extent.work_grid``: cost grows with
+            the scene's extent); a number: that many footprints X on each side, whatever
+            the scene (0: the circular window; ``azimuth_window`` says what wraps).
+        azimuth_aliases: Doppler alias bands ±1 … ±n synthesised beside the principal one
+            (azimuth ambiguities: the exact model samples the pattern at the PRF, so echo
+            energy beyond ±PRF/2 folds back); None (default): as many as hold all but
+            ``azimuth_tolerance`` of the echo energy ``∫|W²(u)|² du``, at most
+            ``max_azimuth_aliases``; 0: the principal band only.
+        azimuth_tolerance: echo energy left out of the support and the alias bands
+            (default 10⁻³·⁵; sinc²: the echo synthesised over ``|u| ≤ 2.3``).
+        max_azimuth_aliases: the most alias bands on each side (each costs about one
+            synthesis; beyond, ``azimuth_aliases`` says what is left out).
         taps: windowed-sinc length of the inverse Stolt interpolation (grids).
         range_aliases: range-spectrum aliases ±m summed (the chirp's spectrum extends past
             ±f_s/2 when f_s/Δf is close to 1; 1 matches the sampled model closely).
@@ -108,7 +123,10 @@ class AbstractFourierSimulator(AbstractSimulator):
         cls.motion = cls.track.kind  # what the track models
 
     pointing_order: int = eqx.field(static=True, default=2)
-    azimuth_padding: float = eqx.field(static=True, default=1.0)
+    azimuth_padding: float | None = eqx.field(static=True, default=None)
+    azimuth_aliases: int | None = eqx.field(static=True, default=None)
+    azimuth_tolerance: float = eqx.field(static=True, default=10 ** -3.5)
+    max_azimuth_aliases: int = eqx.field(static=True, default=4)
     taps: int = eqx.field(static=True, default=8)
     range_aliases: int = eqx.field(static=True, default=1)
     alias_tolerance: float = eqx.field(static=True, default=10 ** -4.5)
@@ -125,13 +143,30 @@ class AbstractFourierSimulator(AbstractSimulator):
                 isinstance(self.column_block, int) and self.column_block >= 1):
             raise ValueError(f"column_block={self.column_block!r} must be a positive integer")
 
-    def prepare(self, radar, scene, acquisition) -> FourierPlan:
-        """Check grid scenes; fix the padding and FFT sizes from concrete values."""
+    def support(self, radar, scene, acquisition):
+        """The Doppler alias bands synthesised for this scene
+        (:func:`._extent.azimuth_support`)."""
+        return extent.azimuth_support(radar, scene, acquisition, self.azimuth_tolerance,
+                                      self.azimuth_aliases, self.max_azimuth_aliases)
+
+    def grid(self, radar, scene, motion, acquisition):
+        """(:class:`._extent.AzimuthSupport`, :class:`._extent.WorkGrid`)."""
+        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
+                                self.support(radar, scene, acquisition))
+
+    def prepare(self, radar, scene, acquisition, motion=None) -> FourierPlan:
+        """Check grid scenes; fix the grid (extent, crop, FFT sizes, alias bands and the
+        scatterers it holds) from concrete values."""
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
-        pad, n_r = engine.work_grid(radar, scene, acquisition, self.azimuth_padding)
-        return FourierPlan(pad, n_r,
-                           engine.alias_column_count(radar, n_r, self.alias_tolerance))
+        support, grid = self.grid(radar, scene, motion, acquisition)
+        return FourierPlan(grid.lead, grid.n_r,
+                           engine.alias_column_count(radar, grid.n_r, self.alias_tolerance),
+                           support.bands, jnp.asarray(grid.included, dtype=float))
+
+    def window_budgets(self, radar, scene, motion, acquisition):
+        support, grid = self.grid(radar, scene, motion, acquisition)
+        return azimuth_budgets(support, grid)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         return synthesize(self, plan, radar, scene, motion, acquisition, dtype)
@@ -216,37 +251,69 @@ def _scene_lines(ctx, track, prepared, grid_2d):
 
 def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
     """Raw data (num_pulses, num_range) of ``sim`` (its ``track`` and options) with the
-    sizes of ``plan`` (module docstring)."""
-    track = sim.track
+    sizes of ``plan`` (module docstring): the principal Doppler band and ``plan.bands``
+    alias bands on each side, summed on the pulses."""
     n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-    prepared = engine.prepare_scene(scene)
+    prepared = engine.prepare_scene(extent.within_support(scene, plan.included))
     pad, n_r, n_x, block = plan.sizes(acquisition, sim.column_block)
-    horizontal, vertical, pointing = motion.resolve(n_pulses)
+    horizontal, vertical, _ = motion.resolve(n_pulses)
     k0 = radar.wavenumber
-    xi = engine.squinted_wavenumbers(radar, n_x)
     ctx = SimpleNamespace(
-        radar=radar, prepared=prepared, ranges=prepared.ranges, k0=k0, xi=xi,
-        kz=jnp.sqrt(k0**2 - xi**2), cos_d=jnp.cos(radar.squint), tan_d=jnp.tan(radar.squint),
+        radar=radar, prepared=prepared, ranges=prepared.ranges, k0=k0,
+        cos_d=jnp.cos(radar.squint), tan_d=jnp.tan(radar.squint),
         dx=radar.azimuth_spacing, x_pulses=acquisition.pulse_azimuths(radar),
         horizontal=horizontal, vertical=vertical, pad=pad, n_x=n_x, n_pulses=n_pulses)
     ctx.x0 = ctx.x_pulses[0] - pad * ctx.dx  # DFT origin: the padded window's first pulse
-    ranges = prepared.ranges
+    principal = engine.squinted_wavenumbers(radar, n_x)
 
-    delta_kept = geometry.reference_deviation(horizontal, vertical, radar)  # δr(x')
-    order = track.pointing_order(sim) if motion.pointing is not None else 0
+    # with alias bands, the bin at the lower edge of the covered ξ range, whose partner
+    # at the upper edge is not synthesised, is left out: the covered band stays symmetric
+    # (its pattern weight is below the tolerance there)
+    lower = radar.wavenumber * jnp.sin(radar.squint) - (2 * plan.bands + 1) * jnp.pi / ctx.dx
+    half_bin = jnp.pi / (n_x * ctx.dx)
+
+    def band_ctx(band):
+        """Band k: the same DFT bins at ξ + 2πk/Δx (the samples see every alias alike)."""
+        xi = principal + band * (_TWO_PI / ctx.dx)
+        keep = (xi > lower + half_bin) if plan.bands else jnp.ones(n_x, bool)
+        return SimpleNamespace(**{**vars(ctx), "xi": xi, "kz": jnp.sqrt(k0**2 - xi**2),
+                                  "keep": keep})
+
+    total = _band(sim, plan, band_ctx(0), motion, acquisition, True, n_r, block)  # (η, x')
+    if plan.bands:
+        # the alias bands share one program (a scan over k = ±1 … ±bands)
+        def alias(acc, band):
+            part = _band(sim, plan, band_ctx(band), motion, acquisition, False, n_r, block)
+            return acc + part, None
+
+        others = jnp.asarray([k for k in range(-plan.bands, plan.bands + 1) if k], float)
+        total = jax.lax.scan(alias, total, others)[0]
+    raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
+    return raw.astype(dtype)
+
+
+def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
+    """(n_r, num_pulses) range spectrum of one Doppler band on the pulses. Alias bands
+    (``principal=False``, ≲ −25 dB of the echo) take the main range band and the pattern's
+    zeroth pointing term only."""
+    track, radar, prepared, ranges = sim.track, ctx.radar, ctx.prepared, ctx.ranges
+    xi, k0, n_x, n_pulses = ctx.xi, ctx.k0, ctx.n_x, ctx.n_pulses
+    _, _, pointing = motion.resolve(n_pulses)
+    delta_kept = geometry.reference_deviation(ctx.horizontal, ctx.vertical, radar)  # δr(x')
+    order = track.pointing_order(sim) if motion.pointing is not None and principal else 0
     orders = range(order + 1)
     weights = [engine.pattern_weights(radar, xi, n) for n in orders]
     alias_sets = engine.range_alias_sets(engine.range_wavenumbers(radar, n_r),
-                                         radar.range_spacing, sim.range_aliases,
+                                         radar.range_spacing,
+                                         sim.range_aliases if principal else 0,
                                          plan.alias_columns)
-
     # ---- scene → range lines F_j(ξ) -------------------------------------------------------
     gridded = prepared.gridded and ranges.shape[0] > 1
     sets = None
     grid_2d = gridded and track.kind != "moderate"
     gamma = _scene_lines(ctx, track, prepared, grid_2d)
     # A(ξ, r)/√r: a per-ξ factor, with a grid's azimuth ramp
-    column_weight = engine.stationary_amplitude(radar, xi, 1.0)
+    column_weight = engine.stationary_amplitude(radar, xi, 1.0) * ctx.keep
     if prepared.gridded:
         column_weight = column_weight * engine.grid_azimuth_ramp(prepared.azimuth, ctx.x0, xi)
         spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma, n_x)
@@ -305,11 +372,10 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
                      for q, (base, steep) in enumerate(weights[:n_terms])]
         per_alias = engine.columns_to_pulses(
             produce, terms, eta_m, per_pulse, scale_powers, k0 * ctx.cos_d**2,
-            pad=pad, num_pulses=n_pulses, block=block, loops=sim.column_loops,
+            pad=ctx.pad, num_pulses=n_pulses, block=block, loops=sim.column_loops,
         )
         if total is None:
             total = per_alias
         else:
             total = total + per_alias if cols is None else total.at[cols, :].add(per_alias)
-    raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
-    return raw.astype(dtype)
+    return total

@@ -15,9 +15,8 @@ over ``j`` and windowed-sinc interpolation at the non-uniform wavenumbers ``κ(�
 This module holds those pieces once: the wavenumber grids (with the squinted alias
 nearest the Doppler centroid), the chirp spectrum, the stationary-phase amplitude and
 pattern argument, the range synthesis (direct and inverse Stolt), the range-alias
-bands, the column-blocked assembly of pulses and the size of the padded grid
-(:func:`work_grid`, the one place the azimuth padding and the range FFT length are
-decided). The simulators (``_fourier``, ``_chirp_scaling``, ``_high_speed``) compose them.
+bands, the column-blocked assembly of pulses; ``_extent`` decides the grid they run on. The
+simulators (``_fourier``, ``_chirp_scaling``, ``_high_speed``) compose them.
 """
 
 from __future__ import annotations
@@ -542,45 +541,3 @@ def line_height_under_beam(prepared, x_full, ranges, tan_squint):
     heights = prepared.height.T  # (n_lines, n_az)
     rows = jnp.take_along_axis(heights, jnp.clip(idx, 0, az.shape[0] - 1), axis=1)
     return jnp.where(inside, rows, 0.0)
-
-
-# --------------------------------------------------------------------------------------
-# the padded grid
-# --------------------------------------------------------------------------------------
-
-
-def work_grid(radar, scene, acquisition, azimuth_padding, *, doppler_limited=False,
-              curvature=False, migration=False):
-    """(azimuth pad, n_r): the padded azimuth window and the range FFT length of a
-    Fourier-domain simulator (eager, on concrete values). The one place these are decided.
-
-    Azimuth: ``azimuth_padding`` × the squinted footprint at the farthest scatterer,
-    ``λ r_max / (L cos² φ_d)``, on each side of the window (in pulses, rounded up to a
-    multiple of 128 so that new target ranges rarely recompile); with
-    ``doppler_limited``, no more than where the echo's Doppler leaves the PRF band,
-    ``r_max ξ_max / √(k₀² − ξ_max²)`` (beyond it the sampled spectrum holds only aliases).
-    Range: the window, the chirp (+2 samples) and the range walk of an echo over the
-    padded azimuth span, ``span |sin φ_d|``; with ``curvature`` also its range curvature
-    ``span²/(8 r_min)``, with ``migration`` the range migration at the band edge
-    ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``. Beyond these the echo would wrap.
-    """
-    dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
-    squint = float(np.asarray(radar.squint))
-    ranges = np.asarray(scene.range, dtype=float)
-    r_max, r_min = float(np.max(ranges)), float(np.min(ranges))
-    extent = float(radar.footprint(r_max)) / math.cos(squint) ** 2
-    xi_max = math.pi / dx
-    k0 = float(radar.wavenumber)
-    if doppler_limited:
-        extent = min(extent, r_max * xi_max / math.sqrt(max(k0**2 - xi_max**2, 1e-12)))
-    pad = int(math.ceil(azimuth_padding * extent / dx))
-    pad = -(-pad // 128) * 128
-    span = (acquisition.num_pulses + 2 * pad) * dx
-    reach = span * abs(math.sin(squint))
-    if curvature:
-        reach += span**2 / (8 * r_min)
-    if migration:
-        reach += r_max * (1 / math.sqrt(max(1 - (xi_max / k0) ** 2, 1e-6)) - 1)
-    chirp = int(float(radar.chirp_samples)) + 2
-    n_r = next_fast_len(acquisition.num_range + chirp + int(reach / dr))
-    return pad, n_r

@@ -65,8 +65,10 @@ import numpy as np
 from .._numerics.interpolation import next_fast_len, sinc_interpolate
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
+from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost
+from ._budgets import azimuth_budgets
 from ._tracks import straight_track_budgets
 
 _TWO_PI = 2 * jnp.pi
@@ -184,6 +186,7 @@ class HighSpeedPlan(AbstractPlan):
     groups: tuple = eqx.field(static=True)
     azimuth_pad: int = eqx.field(static=True)
     range_fft_size: int = eqx.field(static=True)
+    included: jnp.ndarray
 
 
 def velocity_groups(radar, scene) -> tuple:
@@ -208,8 +211,9 @@ class HighSpeed(AbstractSimulator):
 
     Attributes:
         stop_and_go: False (default): seed 004's spectrum; True: the stop-and-go one.
-        azimuth_padding: extra azimuth samples on each side, in footprints X (avoids the
-            circular wrap of apertures).
+        azimuth_padding: None (default): the azimuth grid holds every scatterer's echo
+            support that reaches the window, within the principal Doppler band
+            (``_extent.work_grid``); a number: that many footprints X on each side.
         range_aliases: range-spectrum aliases ±m summed (the chirp spectrum extends past
             ±f_s/2 when f_s/Δf is close to 1).
         taps: windowed-sinc length of the inverse Stolt interpolation (grids).
@@ -224,23 +228,34 @@ class HighSpeed(AbstractSimulator):
     # non-stop-and-go: a different model from the (stop-and-go) exact default, so
     # ``method="auto"`` does not substitute it
     in_auto: ClassVar[bool] = False
+    accepts_motion: ClassVar[bool] = False
 
     stop_and_go: bool = eqx.field(static=True, default=False)
-    azimuth_padding: float = eqx.field(static=True, default=1.0)
+    azimuth_padding: float | None = eqx.field(static=True, default=None)
     range_aliases: int = eqx.field(static=True, default=1)
     taps: int = eqx.field(static=True, default=8)
     column_chunk: int = eqx.field(static=True, default=256)
 
-    def prepare(self, radar, scene, acquisition) -> HighSpeedPlan:
+    def prepare(self, radar, scene, acquisition, motion=None) -> HighSpeedPlan:
         """Velocity groups and FFT sizes from the concrete inputs: room in range for the
         walk and curvature of an echo over the padded azimuth window (squinted echoes
         walk across the range window: beyond it they would wrap)."""
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
         groups = velocity_groups(radar, scene)
-        pad, n_r = engine.work_grid(radar, scene, acquisition, self.azimuth_padding,
-                                    curvature=True)
-        return HighSpeedPlan(groups, pad, n_r)
+        _, grid = self.grid(radar, scene, motion, acquisition)
+        return HighSpeedPlan(groups, grid.lead, grid.n_r,
+                             jnp.asarray(grid.included, dtype=float))
+
+    def grid(self, radar, scene, motion, acquisition):
+        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
+        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
+                                         bands=0)
+        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
+                                support, curvature=True)
+
+    def window_budgets(self, radar, scene, motion, acquisition):
+        return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
 
     def approximation_budgets(self, radar, scene, motion, acquisition):
         """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
@@ -264,7 +279,8 @@ class HighSpeed(AbstractSimulator):
                 "method='high_speed' simulates a straight track: motion errors are not "
                 "implemented (use method='time_domain', stop_and_go=False)"
             )
-        return self._simulate(plan, radar, scene, acquisition, dtype)
+        return self._simulate(plan, radar, extent.within_support(scene, plan.included),
+                              acquisition, dtype)
 
     def _simulate(self, plan, radar, scene, acquisition, dtype):
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range

@@ -7,6 +7,8 @@ one class (with its ``names``) added to ``SIMULATORS`` below, and its tests.
 
 from __future__ import annotations
 
+import dataclasses
+
 from ._base import AbstractSimulator
 from ._chirp_scaling import ChirpScaling
 from ._fourier import Fourier2D, ModerateDeviation, SmallDeviation
@@ -75,7 +77,7 @@ def build(method, options=None) -> AbstractSimulator:
     try:
         return cls(**options)
     except TypeError:
-        known = sorted(f for f in cls.__dataclass_fields__ if not f.startswith("_"))
+        known = sorted(f.name for f in dataclasses.fields(cls) if not f.name.startswith("_"))
         raise ValueError(
             f"unknown option(s) {sorted(options)} for method={method!r}; known: {known}"
         ) from None

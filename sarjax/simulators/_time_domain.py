@@ -291,7 +291,7 @@ class TimeDomain(AbstractExactSimulator):
     scatterer_chunk: int | None = eqx.field(static=True, default=None)
     memory_budget: int = eqx.field(static=True, default=256 * 2**20)
 
-    def prepare(self, radar, scene, acquisition) -> TimeDomainPlan:
+    def prepare(self, radar, scene, acquisition, motion=None) -> TimeDomainPlan:
         """Decide (eagerly) whether the general kernel is needed."""
         return TimeDomainPlan(needs_general_kernel(radar, scene, self.stop_and_go))
 

@@ -1,0 +1,303 @@
+"""The grid a Fourier-domain simulation runs on, from the scene (physics.md §3, §4a):
+the Doppler bands to synthesise (azimuth ambiguities), every scatterer's echo support,
+the azimuth extent and crop, the range FFT length, and the scatterers left out. The one
+place these are decided (:func:`work_grid`).
+
+The synthesis is circular in both axes; what it must hold is what reaches the window.
+A scatterer's echo at pulse x' has the pattern argument ``u(x' − x)``; the exact model
+records it at the window's pulses only, and samples the pattern at the PRF, so the echo
+energy at Doppler beyond ±PRF/2 folds back into the band (the azimuth ambiguities). The
+engine synthesises the principal band ``ξ_d ± π/Δx`` and, for the scenes that need them,
+alias bands ``ξ_d + 2πk/Δx ± π/Δx`` (:func:`azimuth_support`); the grid then holds each
+scatterer's echo over those bands (:func:`work_grid`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._numerics.interpolation import next_fast_len
+
+
+def within_support(scene, included):
+    """The scene with the scatterers outside the grid's support (``WorkGrid.included``)
+    set to zero reflectivity."""
+    return eqx.tree_at(lambda s: s.reflectivity, scene, scene.reflectivity * included)
+
+
+
+@functools.lru_cache(maxsize=64)
+def _pattern_energy_table(pattern):
+    """(u, cumulative energy fraction of |W²(u)|² from −∞ to u) on u ∈ [−64, 64]."""
+    u = np.linspace(-64.0, 64.0, 2**17 + 1)
+    with jax.ensure_compile_time_eval():
+        energy = np.abs(np.asarray(pattern(jnp.asarray(u)))) ** 2
+    cumulative = np.cumsum(energy)
+    return u, cumulative / cumulative[-1]
+
+
+def pattern_energy_table(pattern):
+    """(u, cumulative energy fraction) of the two-way pattern's echo energy ``|W²(u)|²``."""
+    try:
+        return _pattern_energy_table(pattern)
+    except TypeError:  # a pattern with array fields is not hashable
+        return _pattern_energy_table.__wrapped__(pattern)
+
+
+def pattern_energy_outside(pattern, u_lo, u_hi) -> float:
+    """Fraction of the echo energy ``∫|W²(u)|² du`` outside ``u ∈ [u_lo, u_hi]``."""
+    u, cumulative = pattern_energy_table(pattern)
+    inside = np.interp(u_hi, u, cumulative) - np.interp(u_lo, u, cumulative)
+    return float(max(1.0 - inside, 0.0))
+
+
+class AzimuthSupport(NamedTuple):
+    """What the engine synthesises in azimuth for a scene (eager, NumPy).
+
+    Attributes:
+        bands: Doppler alias bands ±1 … ±bands synthesised beside the principal one.
+        left_out: the echo energy the window records that the synthesised bands miss,
+            over the energy it records (scatterers weighted by ``|γ|²``): the azimuth
+            ambiguities not modelled, and the echoes of scatterers left out.
+        look: (φ_lo, φ_hi) [rad], the look angles the bands span (``ξ = k₀ sin φ``,
+            ``a = x' − x = −r tan φ``).
+        sidelobes: the share of the recorded echo energy the window sees through the
+            pattern's sidelobes only (``|u| > 1``).
+    """
+
+    bands: int
+    left_out: float
+    look: tuple[float, float]
+    sidelobes: float = 0.0
+
+
+def _pattern_u(radar, along, slant_range):
+    """The exact model's pattern argument ``u = (L/λ)(a/r + T)/(1 − aT/r)`` (nominal
+    pointing) of pulses at ``a = x' − x`` from a scatterer at range r."""
+    t = math.tan(float(np.asarray(radar.squint)))
+    ratio = float(radar.antenna_length) / float(radar.wavelength)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return ratio * (along / slant_range + t) / (1 - along * t / slant_range)
+
+
+def band_look_angles(radar, bands):
+    """(φ_lo, φ_hi) [rad]: the look angles ``ξ = k₀ sin φ`` of the principal Doppler band
+    ``ξ_d ± π/Δx`` and ``bands`` alias bands on each side."""
+    dx = float(radar.azimuth_spacing)
+    k0 = float(radar.wavenumber)
+    xi_d = k0 * math.sin(float(np.asarray(radar.squint)))
+    edge = np.clip((xi_d + np.array([-1, 1]) * (2 * bands + 1) * math.pi / dx) / k0, -1, 1)
+    limit = math.pi / 2 - 1e-3
+    lo, hi = np.clip(np.arcsin(edge), -limit, limit)
+    return float(lo), float(hi)
+
+
+def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=4):
+    """The Doppler bands an echo must be synthesised over (physics.md §3: the exact model
+    samples the pattern at the PRF, so echo energy at Doppler beyond ±PRF/2 folds back:
+    azimuth ambiguities), from the scene: :class:`AzimuthSupport`.
+
+    A scatterer's echo at pulse ``x'`` has the pattern argument ``u(a)``, ``a = x' − x``;
+    over the window it spans ``[u(w₀ − x), u(w₁ − x)]``, and records the energy
+    ``∫|W²(u)|² du`` there. The bands cover look angles ``φ`` (``ξ = k₀ sin φ``, at the
+    stationary point ``a = −r tan φ``), i.e. ``u ∈ [u(−r tan φ_hi), u(−r tan φ_lo)]``;
+    the energy outside that, over every scatterer (weighted by ``|γ|²``), relative to
+    all the window records, is ``left_out``. ``bands=None``: the fewest (at most
+    ``max_bands``) with ``left_out ≤ tolerance``.
+    """
+    u_grid, cumulative = pattern_energy_table(radar.pattern)
+    dx = float(radar.azimuth_spacing)
+    n = acquisition.num_pulses
+    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+    w1 = w0 + (n - 1) * dx
+    x, r = np.broadcast_arrays(*_scene_cells(scene, (w0, w1)))
+    if _is_traced((scene.azimuth, scene.reflectivity)):
+        # traced scatterers: judged by the whole echo (every |u|), equally weighted
+        weight = np.ones(x.shape)
+        u_a, u_b = np.full(x.shape, -np.inf), np.full(x.shape, np.inf)
+    else:
+        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), x.shape)) ** 2
+        u_a = np.nan_to_num(_pattern_u(radar, w0 - x, r), nan=-np.inf)
+        u_b = np.nan_to_num(_pattern_u(radar, w1 - x, r), nan=np.inf)
+    energy = lambda lo, hi: np.clip(np.interp(hi, u_grid, cumulative)
+                                    - np.interp(lo, u_grid, cumulative), 0.0, None)
+    recorded = float(np.sum(weight * energy(u_a, u_b)))
+    main_lobe = float(np.sum(weight * energy(np.maximum(u_a, -1.0), np.minimum(u_b, 1.0))))
+    sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
+
+    def left_out(k):
+        phi_lo, phi_hi = band_look_angles(radar, k)
+        cov_lo = _pattern_u(radar, -r * math.tan(phi_hi), r)
+        cov_hi = _pattern_u(radar, -r * math.tan(phi_lo), r)
+        seen = energy(np.maximum(u_a, cov_lo), np.minimum(u_b, cov_hi))
+        missed = float(np.sum(weight * (energy(u_a, u_b) - seen)))
+        return missed / recorded if recorded > 0 else 0.0
+
+    if bands is None:
+        bands = 0
+        while left_out(bands) > tolerance and bands < max_bands:
+            bands += 1
+    return AzimuthSupport(int(bands), left_out(bands), band_look_angles(radar, bands),
+                          max(sidelobes, 0.0))
+
+
+FRESNEL_ZONES = 6.0  # margin of an echo's azimuth support beyond its band's edges
+AZIMUTH_TOLERANCE = 10 ** -3.5  # echo energy left out of the azimuth support (default)
+
+
+def motion_margin(motion) -> float:
+    """The largest line-of-sight deviation a motion can cause, ``max|Δy| + max|Δz|`` [m]
+    (0 for none, or for traced values)."""
+    total = 0.0
+    for values in (getattr(motion, "horizontal", None), getattr(motion, "vertical", None)):
+        if values is not None and not isinstance(values, jax.core.Tracer):
+            total += float(np.max(np.abs(np.asarray(values)), initial=0.0))
+    return total
+
+
+def band_grid(radar, scene, motion, acquisition, azimuth_padding, support, **rules):
+    """(support, grid): :func:`work_grid` for the look angles of ``support``
+    (:func:`azimuth_support`) and the motion's largest deviation."""
+    return support, work_grid(radar, scene, acquisition, azimuth_padding, support=support,
+                              motion_margin=motion_margin(motion), **rules)
+
+
+class WorkGrid(NamedTuple):
+    """The padded grid a Fourier-domain simulation runs on (eager, NumPy).
+
+    Attributes:
+        lead: pulses synthesised before the first acquired pulse (the crop offset).
+        n_x, n_r: azimuth and range FFT lengths.
+        included: bool, broadcast to the scene (``(n_s,)`` or ``(n_az, n_lines)``): the
+            scatterers whose echo reaches the window (within the support); the others
+            add less than the tolerance there and are left out (else they would wrap in).
+        extent: the azimuth span the scene needs over what one scatterer in the window
+            needs (the window and one echo support): how far the scene reaches beyond.
+        wrapped: fraction of the included scatterers whose support the azimuth grid does
+            not hold (a fixed ``azimuth_padding`` smaller than the scene needs).
+    """
+
+    lead: int
+    n_x: int
+    n_r: int
+    included: np.ndarray
+    extent: float
+    wrapped: float
+
+
+def _is_traced(value) -> bool:
+    return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(value))
+
+
+def _scene_cells(scene, window=None):
+    """(x, r) broadcastable NumPy arrays of the scene's scatterers. Traced azimuths (a
+    gradient with respect to them) are taken at the window's ends ``window = (w₀, w₁)``,
+    the farthest an in-window scatterer can be (traced ranges cannot size a grid)."""
+    if _is_traced(scene.range):
+        raise ValueError("the Fourier-domain simulators size their grid from the scatterers' "
+                         "ranges: scene.range must be concrete (not differentiated)")
+    r = np.asarray(scene.range, float)
+    if _is_traced(scene.azimuth):
+        if window is None:
+            raise ValueError("scene.azimuth is traced")
+        return np.asarray(window, float)[:, None], np.array([r.min(), r.max()])[None, :]
+    x = np.asarray(scene.azimuth, float)
+    if np.ndim(scene.reflectivity) == 2 and x.ndim == 1 and r.ndim == 1 and (
+            np.shape(scene.reflectivity) == (x.size, r.size)):
+        return x[:, None], r[None, :]
+    return x, r
+
+
+def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
+              motion_margin=0.0, doppler_limited=False, curvature=False, migration=False):
+    """The padded grid of a Fourier-domain simulator (:class:`WorkGrid`; eager, on
+    concrete values): the one place the azimuth extent, the crop and the range FFT length
+    are decided.
+
+    The synthesis is circular in both axes: a scatterer's echo, synthesised over its
+    support ``[lo, hi]`` (pulses, or range samples), comes back shifted by whole periods
+    ``P``. It stays out of the window ``[w₀, w₁]`` when ``P > max(w₁ − lo, hi − w₀)``; the
+    grid takes the largest such P over the scatterers whose support reaches the window,
+    so its cost grows with the scene's extent, not with a worst case. Scatterers whose
+    support misses the window are left out (``included``): within the support's tolerance
+    they add nothing there, and they would otherwise wrap in.
+
+    * Azimuth support: the look angles of the synthesised Doppler bands
+      (:func:`azimuth_support`; ``a = x' − x = −r tan φ``; ``support=None``: the
+      principal band). A number
+      ``azimuth_padding`` [footprints] instead pads the window by that many squinted
+      footprints ``λ r_max / (L cos² φ_d)`` on each side (with ``doppler_limited``, no more
+      than where the echo's Doppler leaves the PRF band), whatever the scene; ``wrapped``
+      says which scatterers that grid does not hold.
+    * Range support: the echo's range over the window's pulses within its azimuth support,
+      ± the chirp ``cτ/4``, ``motion_margin`` (the largest line-of-sight deviation) and
+      two samples; at least the window, the chirp (+2 samples) and the range walk of an
+      echo over the padded azimuth span ``span |sin φ_d|`` (with ``curvature`` also its
+      range curvature ``span²/(8 r_min)``, with ``migration`` the range migration at the
+      band edge ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``).
+    """
+    dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
+    squint = float(np.asarray(radar.squint))
+    n, n_range = acquisition.num_pulses, acquisition.num_range
+    x_first = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+    w0, w1 = x_first, x_first + (n - 1) * dx
+    x, r = np.broadcast_arrays(*_scene_cells(scene, (w0, w1)))
+    near = float(acquisition.near_range)
+    far = near + (n_range - 1) * dr
+    r_max, r_min = float(np.max(r)), float(np.min(r))
+    k0 = float(radar.wavenumber)
+    xi_max = math.pi / dx
+    look = band_look_angles(radar, 0) if support is None else support.look
+    # azimuth support of each scatterer [m], with FRESNEL_ZONES Fresnel zones √(λr/2) on
+    # each side: where the pattern is still high at the band's edge (a PRF below the
+    # Doppler band) the spectrum's cut rings over a few zones
+    fresnel = FRESNEL_ZONES * np.sqrt(float(radar.wavelength) * r / 2)
+    lo = x - r * math.tan(look[1]) - fresnel
+    hi = x - r * math.tan(look[0]) + fresnel
+    reaches = (hi >= w0 - dx) & (lo <= w1 + dx)
+    # range support over the window's pulses within the azimuth support
+    a_near = np.clip(np.clip(0.0, lo - x, hi - x), w0 - x, w1 - x)  # closest a in both
+    a_ends = np.stack([np.clip(lo - x, w0 - x, w1 - x), np.clip(hi - x, w0 - x, w1 - x)])
+    reach = float(radar.pulse_half_length) + motion_margin + 2 * dr
+    rho0 = np.sqrt(r**2 + a_near**2) - reach
+    rho1 = np.sqrt(r**2 + np.max(a_ends**2, axis=0)) + reach
+    kept = reaches & (rho1 >= near) & (rho0 <= far)
+    included = kept
+    if _is_traced(scene.azimuth):  # sized for scatterers anywhere in the window: all kept
+        kept = np.ones(x.shape, bool)
+        included = np.ones(np.shape(scene.reflectivity), bool)
+    if azimuth_padding is None:
+        need = np.max(np.where(kept, np.maximum(w1 - lo, hi - w0), 0.0), initial=0.0)
+        pad = max(0, math.ceil((need / dx + 1 - n) / 2))
+    else:
+        extent = float(radar.footprint(r_max)) / math.cos(squint) ** 2
+        if doppler_limited:
+            extent = min(extent, r_max * xi_max / math.sqrt(max(k0**2 - xi_max**2, 1e-12)))
+        pad = math.ceil(azimuth_padding * extent / dx)
+    pad = -(-pad // 128) * 128  # coarse steps: new target positions rarely recompile
+    n_x = next_fast_len(n + 2 * pad)
+    period = n_x * dx
+    holds = np.maximum(w1 - lo, hi - w0) < period
+    wrapped = float(np.mean(~holds[kept])) if kept.any() else 0.0
+    # range: the scene's need, at least the fixed rule
+    span = n_x * dx
+    walk = span * abs(math.sin(squint))
+    if curvature:
+        walk += span**2 / (8 * r_min)
+    if migration:
+        walk += r_max * (1 / math.sqrt(max(1 - (xi_max / k0) ** 2, 1e-6)) - 1)
+    chirp = int(float(radar.chirp_samples)) + 2
+    fixed = n_range + chirp + int(walk / dr)
+    need_r = np.max(np.where(kept, np.maximum(far - rho0, rho1 - near), 0.0), initial=0.0)
+    n_r = next_fast_len(max(fixed, math.ceil(need_r / dr) + 2))
+    # the scene's need over what one scatterer in the window needs
+    own = n * dx + r_max * (math.tan(look[1]) - math.tan(look[0]))
+    return WorkGrid(pad, n_x, n_r, included, float(need) / own if azimuth_padding is None
+                    else n_x * dx / own, wrapped)
