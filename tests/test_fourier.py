@@ -30,7 +30,11 @@ def test_constant_deviation_is_exact_for_both_methods():
     ideal_error = phase_error_rms(shifted_ideal.data, sj.simulate(
         RADAR, sj.PointTargets(azimuth=[0.0], range=[5140.0 + delta])).data)
     for method in ("moderate_deviation", "small_deviation"):
-        raw = sj.simulate(RADAR, scene, motion, method=method)
+        if method == "small_deviation":  # 1 m: its coupling budget says so (ε11 0.15)
+            with pytest.warns(sj.ValidityWarning, match="epsilon_11"):
+                raw = sj.simulate(RADAR, scene, motion, method=method)
+        else:
+            raw = sj.simulate(RADAR, scene, motion, method=method)
         err = phase_error_rms(raw.data, ref.data)
         # small deviation neglects the coupling ϕ (≈ 0.06 rad rms here); B corrects it
         bound = 1.5 * ideal_error if method == "moderate_deviation" else 0.1
@@ -77,8 +81,13 @@ def test_pointing_order_improves_accuracy():
     scene = sj.PointTargets(azimuth=[0.0], range=[5140.0])
     motion = sj.Motion(pointing=sj.seed_pointing_jitter(RADAR, X, amplitude_fraction=0.2))
     ref = sj.simulate(RADAR, scene, motion)
-    errs = [nmse_db(sj.simulate(RADAR, scene, motion, method="moderate_deviation",
-                                pointing_order=order).data, ref.data) for order in (0, 2)]
+    # 0.2 λ/L is beyond the pointing budget of either order (order 2: 0.03 > 0.02): both
+    # runs say so
+    with pytest.warns(sj.ValidityWarning, match="epsilon_az"):
+        low = sj.simulate(RADAR, scene, motion, method="moderate_deviation", pointing_order=0)
+    with pytest.warns(sj.ValidityWarning, match="epsilon_az"):
+        high = sj.simulate(RADAR, scene, motion, method="moderate_deviation", pointing_order=2)
+    errs = [nmse_db(low.data, ref.data), nmse_db(high.data, ref.data)]
     assert errs[1] < errs[0] - 6.0, errs
 
 

@@ -1,6 +1,8 @@
 """Gradients through the Fourier simulators (small and moderate deviation) w.r.t. the
 deviations and the pointing jitter match central finite differences (float64)."""
 
+import warnings
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -26,9 +28,14 @@ BASE = {
 
 
 def _loss_fn(method, weights):
+    # PRF = 16 Hz ≪ 2v/L: a cheap undersampled setting, outside the physical validity
+    # (the echo spans 25 Doppler bands). The test checks the derivatives of the model
+    # itself, so it runs the principal band only and does not need the budgets' warning.
     def loss(params):
-        raw = sj.simulate(RADAR, SCENE, sj.Motion(**params), method=method,
-                          num_pulses=N_PULSES, num_range=N_RANGE)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", sj.ValidityWarning)
+            raw = sj.simulate(RADAR, SCENE, sj.Motion(**params), method=method,
+                              num_pulses=N_PULSES, num_range=N_RANGE, azimuth_aliases=0)
         return jnp.sum(jnp.real(raw.data * weights)) + 0.1 * jnp.sum(jnp.abs(raw.data) ** 2)
     return loss
 

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import sarjax as sj
+from sarjax.validity import choose_method
 
 try:  # tests/ on sys.path (pytest's default rootdir-relative import)
     import _accuracy as acc
@@ -134,7 +135,7 @@ def test_valid_implies_accurate(case, method):
 def _table_row(case, method, verdict, got):
     rms, profile, fraction, range_ = case
     budgets = " ".join(f"{b.name[8:] or b.name}={b.value:.3g}" for b in verdict.budgets)
-    worst = max(b.value / b.threshold for b in verdict.budgets)
+    worst = max(b.ratio for b in verdict.budgets)
     head = (f"{rms:6g} {profile:4s} {fraction:5g} {range_:6g} {method[:8]:8s} "
             f"{'VALID' if verdict.valid else 'inval':5s} x{worst:<9.3g} {budgets:48s}")
     if got is None:
@@ -165,7 +166,7 @@ def test_valid_implies_accurate_full_grid():
                     # sidelobes of the antenna-weighted response? (uniform: −13.5 dB)
                     uniform = acc.accuracy(RADAR, scene, motion, method, "uniform")
                     print(f"{'':>26}uniform weighting: {uniform.summary()}", flush=True)
-                worst = max(b.value / b.threshold for b in verdict.budgets)
+                worst = max(b.ratio for b in verdict.budgets)
                 if verdict.valid and not got.accurate:
                     failures.append(_table_row(case, method, verdict, got))
                 if got.accurate and worst > 10:
@@ -232,8 +233,10 @@ def test_failure_cases_predicted(rms, profile, fraction, range_, method, nmse_ab
     # … through the budget of the term that actually breaks: the envelope shift of ψ
     # for 5 m, the pattern-expansion remainder (L δ_m/λ)³ max|W²‴|/3! for ±λ/L pointing
     assert not verdict[budget].ok, str(verdict)
-    got = acc.accuracy(RADAR, scene, motion, method)
-    # and the simulation really is wrong: NMSE above the limit (−25 dB for 5 m, and
+    # the simulation says so when it runs (a ValidityWarning naming that budget) …
+    with pytest.warns(sj.ValidityWarning, match=budget):
+        got = acc.accuracy(RADAR, scene, motion, method)
+    # and it really is wrong: NMSE above the limit (−25 dB for 5 m, and
     # well above it, −20 dB, for ±λ/L pointing)
     assert got.nmse_db > nmse_above, got.summary()
 
@@ -243,29 +246,46 @@ def test_failure_cases_predicted(rms, profile, fraction, range_, method, nmse_ab
 # --------------------------------------------------------------------------------------
 
 
+def _dense_scene():
+    """An extended scene (a 972 × 400 reflectivity grid on the pulse lattice, over the
+    swath's three target ranges): the exact model's cost grows with its 389 k cells, a
+    Fourier program's with the grid only."""
+    dx = float(RADAR.azimuth_spacing)
+    rng = np.random.default_rng(4)
+    return sj.ReflectivityGrid(rng.normal(size=(972, 400)), (np.arange(972) - 486) * dx,
+                               np.linspace(RANGES[0], RANGES[-1], 400))
+
+
 @pytest.mark.parametrize(
     "rms, profile, expected",
     [
         (0.0, "slow", "fourier_2d"),
         (1e-3, "slow", "small_deviation"),
         (0.3, "slow", "moderate_deviation"),
-        (5.0, "fast", "time_domain"),
+        (5.0, "fast", "time_domain_nufft"),
     ],
 )
-def test_auto_picks_fastest_valid(rms, profile, expected):
-    """``method="auto"`` takes the first valid method in the order fourier_2d,
-    small_deviation, moderate_deviation, time_domain, and reports it in ``raw.method``."""
-    scene = sj.PointTargets(azimuth=[0.0] * 3, range=list(RANGES), reflectivity=[1.0] * 3)
+def test_auto_picks_the_cheapest_valid_method(rms, profile, expected):
+    """``method="auto"`` takes the valid method of least cost (compile and steady time,
+    ``AbstractSimulator.cost``). On an extended scene the Fourier methods cost the least,
+    in the order fourier_2d, small_deviation, moderate_deviation, and the exact model by
+    NUFFT beats the direct one; each cheaper method is invalid where auto passes it."""
+    scene = _dense_scene()
     motion = acc.make_motion(rms, profile, 0.05) if rms else None
-    order = ("fourier_2d", "small_deviation", "moderate_deviation", "time_domain")
-    for faster in order[: order.index(expected)]:
-        # every faster method is invalid here, else auto should have picked it
-        assert not sj.validity(RADAR, scene, motion, method=faster).valid, faster
-    # the expected method itself is valid (time_domain has no budgets: always valid)
-    assert sj.validity(RADAR, scene, motion, method=expected).valid
-    raw = sj.simulate(RADAR, scene, motion, method="auto")
-    # the choice is reported to the caller
-    assert raw.method == expected
+    chosen, report = choose_method(RADAR, scene, motion)
+    assert chosen == expected, {m: v.valid for m, v in report.items()}
+    order = ("fourier_2d", "small_deviation", "moderate_deviation")
+    for cheaper in order[: order.index(expected)] if expected in order else order:
+        assert not report[cheaper].valid, cheaper
+    assert report[expected].valid
+
+
+def test_auto_on_one_point_target_runs_the_exact_model():
+    """One point target: the exact model costs less than compiling any Fourier program
+    (≈ 0.6 s against ≈ 5 s on this machine class), so ``auto`` runs it, and reports the
+    choice in ``raw.method``."""
+    scene = acc.single_target(RANGES[1])
+    raw = sj.simulate(RADAR, scene, None, method="auto")
+    assert raw.method == "time_domain"
     assert raw.shape == (RADAR.num_pulses, RADAR.num_range)
-    # and the data are finite (a silent NaN would pass every check above)
     assert np.all(np.isfinite(np.asarray(raw.data)))
