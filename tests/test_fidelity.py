@@ -95,7 +95,7 @@ SETTINGS = dict(deadline=None, derandomize=True, database=None,
 
 
 @pytest.mark.parametrize("method", METHODS)
-@settings(max_examples=3, **SETTINGS)
+@settings(max_examples=2, **SETTINGS)
 @given(case=scenes())
 def test_no_warning_means_accurate(method, case):
     _check(method, case)

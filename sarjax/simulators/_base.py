@@ -142,12 +142,8 @@ class AbstractExactSimulator(AbstractSimulator):
     """An exact model: any motion, squint and moving scatterers; pulses independent; no
     approximation budgets (its window budget only)."""
 
-    motion: ClassVar[str] = "any"
-    supports_squint: ClassVar[bool] = True
-    supports_moving_targets: ClassVar[bool] = True
-    exact: ClassVar[bool] = True
-    pulse_local: ClassVar[bool] = True
-    in_auto: ClassVar[bool] = True
+    # every feature of the model: the exact simulators are the judge
+    supports_squint = supports_moving_targets = exact = pulse_local = in_auto = True
 
 
 def concrete_float(value):

@@ -43,9 +43,8 @@ from .._numerics.interpolation import next_fast_len
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
-from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import azimuth_budgets
-from ._tracks import straight_track_budgets
+from ._base import AbstractPlan, Cost
+from ._tracks import AbstractPrincipalBandSimulator
 
 _TWO_PI = 2 * jnp.pi
 
@@ -67,7 +66,7 @@ class ChirpScalingPlan(AbstractPlan):
     included: jnp.ndarray
 
 
-class ChirpScaling(AbstractSimulator):
+class ChirpScaling(AbstractPrincipalBandSimulator):
     """Inverse chirp-scaling simulator (seed 003), see the module docstring.
 
     Attributes:
@@ -81,13 +80,9 @@ class ChirpScaling(AbstractSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("chirp_scaling",)
     physics: ClassVar[str] = "physics.md §9 (seed 003, Appendix A)"
-    motion: ClassVar[str] = "straight"
-    supports_squint: ClassVar[bool] = False
-    supports_moving_targets: ClassVar[bool] = False
     # the range-Doppler approximations (chirp rate at r_ref, quadratic phase in η) have
-    # no measured budget yet: ``method="auto"`` does not choose it
-    in_auto: ClassVar[bool] = False
-    accepts_motion: ClassVar[bool] = False
+    # no measured budget yet: ``method="auto"`` does not choose it (the base says so)
+    grid_rules: ClassVar[dict] = dict(doppler_limited=True, migration=True)
 
     azimuth_padding: float | None = eqx.field(static=True, default=None)
     reference_range: float | None = eqx.field(static=True, default=None)
@@ -107,20 +102,6 @@ class ChirpScaling(AbstractSimulator):
         # or where its Doppler leaves the PRF band; in range the migration at the band edge
         _, grid = self.grid(radar, scene, motion, acquisition)
         return ChirpScalingPlan(grid.lead, grid.n_r, jnp.asarray(grid.included, dtype=float))
-
-    def grid(self, radar, scene, motion, acquisition):
-        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
-        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
-                                         bands=0)
-        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
-                                support, doppler_limited=True, migration=True)
-
-    def window_budgets(self, radar, scene, motion, acquisition):
-        return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
-
-    def approximation_budgets(self, radar, scene, motion, acquisition):
-        """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
-        return straight_track_budgets(radar, scene, motion, acquisition)
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)

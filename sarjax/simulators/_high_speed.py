@@ -67,9 +67,8 @@ from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
-from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import azimuth_budgets
-from ._tracks import straight_track_budgets
+from ._base import AbstractPlan, Cost
+from ._tracks import AbstractPrincipalBandSimulator
 
 _TWO_PI = 2 * jnp.pi
 
@@ -205,7 +204,7 @@ def velocity_groups(radar, scene) -> tuple:
                  for a, b in np.unique(pairs, axis=0))
 
 
-class HighSpeed(AbstractSimulator):
+class HighSpeed(AbstractPrincipalBandSimulator):
     """High-speed (non-stop-and-go) 2-D Fourier simulator with moving targets, seed 004
     §3; the derivation and steps are in the module docstring.
 
@@ -222,13 +221,10 @@ class HighSpeed(AbstractSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("high_speed",)
     physics: ClassVar[str] = "physics.md §10 (seed 004 §2–3)"
-    motion: ClassVar[str] = "straight"
-    supports_squint: ClassVar[bool] = True
-    supports_moving_targets: ClassVar[bool] = True
+    supports_squint = supports_moving_targets = True
     # non-stop-and-go: a different model from the (stop-and-go) exact default, so
-    # ``method="auto"`` does not substitute it
-    in_auto: ClassVar[bool] = False
-    accepts_motion: ClassVar[bool] = False
+    # ``method="auto"`` does not substitute it (the base says so)
+    grid_rules: ClassVar[dict] = dict(curvature=True)
 
     stop_and_go: bool = eqx.field(static=True, default=False)
     azimuth_padding: float | None = eqx.field(static=True, default=None)
@@ -246,20 +242,6 @@ class HighSpeed(AbstractSimulator):
         _, grid = self.grid(radar, scene, motion, acquisition)
         return HighSpeedPlan(groups, grid.lead, grid.n_r,
                              jnp.asarray(grid.included, dtype=float))
-
-    def grid(self, radar, scene, motion, acquisition):
-        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
-        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
-                                         bands=0)
-        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
-                                support, curvature=True)
-
-    def window_budgets(self, radar, scene, motion, acquisition):
-        return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
-
-    def approximation_budgets(self, radar, scene, motion, acquisition):
-        """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
-        return straight_track_budgets(radar, scene, motion, acquisition)
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)

@@ -45,8 +45,17 @@ import numpy as np
 
 from .. import geometry
 from .._numerics.phasor import unit_phasor
+from . import _extent as extent
 from . import _fourier_engine as engine
-from ._budgets import PHASE_THRESHOLD, Budget, LobeGeometry, at_pulse, pointing_budget
+from ._base import AbstractSimulator
+from ._budgets import (
+    PHASE_THRESHOLD,
+    Budget,
+    LobeGeometry,
+    at_pulse,
+    azimuth_budgets,
+    pointing_budget,
+)
 
 
 class AbstractTrack(eqx.Module):
@@ -63,9 +72,8 @@ class AbstractTrack(eqx.Module):
     # steady time in FFT2-equivalents of the padded grid (benchmarks/RESULTS.md)
     fft_equivalents: ClassVar[float] = 13.0
 
-    def kappa(self, radar, xi, eta):
-        """κ(ξ, η) [rad/m] of the range synthesis."""
-        return engine.kappa_full(radar, xi, eta)
+    # κ(ξ, η) [rad/m] of the range synthesis: √(η̄² − ξ²) − k₀
+    kappa: ClassVar = staticmethod(engine.kappa_full)
 
     def modulate_scene(self, ctx, gamma, xs, rs, hs):
         """The scene as the engine synthesises it (default: unchanged)."""
@@ -102,6 +110,32 @@ class StraightTrack(AbstractTrack):
     def phase_budgets(self, sim, lobe):
         return [Budget("epsilon_motion", lobe.k0 * lobe.lobe_max(lobe.los), PHASE_THRESHOLD,
                        "(4π/λ) max|δr_xr|: the deviation is not modelled")]
+
+
+class AbstractPrincipalBandSimulator(AbstractSimulator):
+    """A Fourier-domain model of the straight track that synthesises the principal
+    Doppler band only, on the grid of ``_extent.work_grid`` (chirp scaling, high speed):
+    it refuses motion, reports the straight track's budgets and the azimuth ambiguities
+    it leaves out, and ``method="auto"`` does not choose it. ``grid_rules``: the range
+    terms its echoes need (``work_grid``'s keywords)."""
+
+    motion: ClassVar[str] = "straight"
+    in_auto = accepts_motion = False
+    grid_rules: ClassVar[dict] = {}
+
+    def grid(self, radar, scene, motion, acquisition):
+        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
+        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
+                                         bands=0)
+        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
+                                support, **self.grid_rules)
+
+    def window_budgets(self, radar, scene, motion, acquisition):
+        return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
+
+    def approximation_budgets(self, radar, scene, motion, acquisition):
+        """The straight track's budgets (``epsilon_motion``, pointing of order 0)."""
+        return straight_track_budgets(radar, scene, motion, acquisition)
 
 
 def straight_track_budgets(radar, scene, motion, acquisition):
@@ -155,8 +189,7 @@ class ModerateDeviationTrack(AbstractTrack):
     workspace_factors: ClassVar[tuple[float, float, float, float]] = (0.75, 16.5, 1.5, 0.2)
     fft_equivalents: ClassVar[float] = 37.0
 
-    def kappa(self, radar, xi, eta):
-        return engine.kappa_b(radar, xi, eta)
+    kappa: ClassVar = staticmethod(engine.kappa_b)  # B's κ_B = √(η̄² − ξ²) − √(k₀² − ξ²)
 
     def _lines(self, ctx, sim, lines, envelope):
         """Along-track part of B for one line set (n_lines, n_x); with ``envelope`` the
