@@ -273,35 +273,33 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
         broken = [b for b in report.violated if b.name != "range_window"]
         if broken:
             which = f" (realization {index})" if len(realizations) > 1 else ""
-            message = _outside_validity(simulator, broken, which, radar, scene, realization,
-                                        acquisition)
+            message = _outside_validity(simulator, broken, which)
             if strict:
                 raise ValueError(f"strict=True: {message}, or strict=False")
             warnings.warn(message, ValidityWarning, stacklevel=4)
             return
 
 
-def _outside_validity(simulator, broken, which, radar, scene, motion, acquisition) -> str:
+def _outside_validity(simulator, broken, which) -> str:
     """The message of a run outside its budgets: each budget broken (value, threshold,
-    meaning) and the methods to use instead (the cheapest valid one, and the exact)."""
-    from .simulators import _registry
-    from .validity import choose_method
+    meaning) and the methods to use instead: for an approximation, the registered
+    methods that model more of the motion (without checking their own budgets:
+    ``method='auto'`` does that), and the exact models; for the grid, the exact models."""
+    from .simulators import MOTION_KINDS, _registry
 
-    name = type(simulator).names[0] if type(simulator).names else type(simulator).__name__
+    cls = type(simulator)
+    name = cls.names[0] if cls.names else cls.__name__
     text = "; ".join(f"{b.name}={b.value:.3g} > {b.threshold:g} ({b.meaning})"
                      for b in broken)
-    instead = [cls.names[0] for cls in _registry.SIMULATORS if cls.exact]
-    try:
-        chosen = choose_method(radar, scene, motion, num_pulses=acquisition.num_pulses,
-                               num_range=acquisition.num_range,
-                               near_range=acquisition.near_range,
-                               azimuth_center=float(acquisition.azimuth_center))[0]
-    except ValueError:  # a scene no candidate can prepare: the exact models remain
-        chosen = None
-    if chosen is not None and chosen != name:
-        instead = [chosen] + [m for m in instead if m != chosen]
+    instead = []
+    if any(b.name.startswith("epsilon") for b in broken) and cls.motion in MOTION_KINDS:
+        rank = MOTION_KINDS.index(cls.motion)
+        instead = [c.names[0] for c in _registry.auto_candidates()
+                   if not c.exact and MOTION_KINDS.index(c.motion) > rank
+                   and (c.supports_squint or not simulator.supports_squint)]
+    instead += [c.names[0] for c in _registry.SIMULATORS if c.exact]
     return (f"method={name!r} is outside its validity{which}: {text}; use method="
-            + " or ".join(f"{m!r}" for m in instead))
+            + " or ".join(f"{m!r}" for m in ["auto"] + instead))
 
 
 def check_focus(radar, raw, motion):

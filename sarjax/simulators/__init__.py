@@ -1,6 +1,7 @@
 """Raw-data simulators (physics.md §3–10): the classes, and the registry built from
 their declarations."""
 
+from ._base import MOTION_KINDS as MOTION_KINDS
 from ._base import AbstractPlan as AbstractPlan
 from ._base import AbstractSimulator as AbstractSimulator
 from ._base import Cost as Cost

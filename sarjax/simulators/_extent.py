@@ -162,11 +162,25 @@ def motion_margin(motion) -> float:
     return total
 
 
+_LAST = [None, None]  # (the inputs, (support, grid)) of the last grid decided
+
+
 def band_grid(radar, scene, motion, acquisition, azimuth_padding, support, **rules):
     """(support, grid): :func:`work_grid` for the look angles of ``support``
-    (:func:`azimuth_support`) and the motion's largest deviation."""
-    return support, work_grid(radar, scene, acquisition, azimuth_padding, support=support,
-                              motion_margin=motion_margin(motion), **rules)
+    (:func:`azimuth_support`) and the motion's largest deviation. A call's plan and
+    budgets ask for the same grid: the last one is kept (the inputs held, so that their
+    identities cannot be reused)."""
+    key = (radar, scene, motion, acquisition.num_pulses, acquisition.num_range,
+           float(acquisition.near_range), float(acquisition.azimuth_center),
+           azimuth_padding, support, tuple(sorted(rules.items())))
+    last = _LAST[0]
+    if last is not None and len(last) == len(key) and all(
+            a is b if i < 3 else a == b for i, (a, b) in enumerate(zip(last, key, strict=True))):
+        return _LAST[1]
+    grid = work_grid(radar, scene, acquisition, azimuth_padding, support=support,
+                     motion_margin=motion_margin(motion), **rules)
+    _LAST[0], _LAST[1] = key, (support, grid)
+    return support, grid
 
 
 class WorkGrid(NamedTuple):
