@@ -1,15 +1,15 @@
 """Validity of a simulation before running it, and ``method="auto"`` (physics.md §7).
 
 Every simulator declares its budgets (``AbstractSimulator.budgets``): the window and
-sampling budgets every method has (``range_window``; ``doppler_sampling`` for the
-Fourier-domain methods) and the approximation budgets of the approximate ones (the phase
-each neglected deviation term can cause over the pulses that illuminate a scatterer,
-``epsilon_11``, ``epsilon_12``, ``epsilon_13``, ``epsilon_motion``, and the pointing
-expansion's ``epsilon_az``; formulas in ``sarjax.simulators._tracks``, thresholds in
-``sarjax.simulators._budgets``: 0.1 rad for phases and 0.02 for the relative pattern
-error, chosen on the calibration grid of ``tests/test_validity.py`` so that every case
-called valid is accurate — focused NMSE ≤ −25 dB, IRW within 1 %, PSLR/ISLR within
-0.3 dB of the exact model).
+grid budgets (``range_window`` for every method; ``azimuth_aliases``, ``azimuth_window``,
+``azimuth_extent``, ``azimuth_sidelobes`` for the Fourier-domain methods) and the
+approximation budgets of the approximate ones (the phase each neglected deviation term
+can cause over the pulses that illuminate a scatterer, ``epsilon_11``, ``epsilon_12``,
+``epsilon_13``, ``epsilon_motion``, and the pointing expansion's ``epsilon_az``;
+formulas in ``sarjax.simulators._tracks``, thresholds in ``sarjax.simulators._budgets``:
+0.1 rad for phases and 0.02 for the relative pattern error, chosen on the calibration
+grid of ``tests/test_validity.py`` so that every case called valid is accurate — focused
+NMSE ≤ −25 dB, IRW within 1 %, PSLR/ISLR within 0.3 dB of the exact model).
 """
 
 from __future__ import annotations

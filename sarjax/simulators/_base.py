@@ -17,7 +17,6 @@ from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
-import numpy as np
 
 from . import _budgets
 
@@ -144,10 +143,3 @@ class AbstractExactSimulator(AbstractSimulator):
 
     # every feature of the model: the exact simulators are the judge
     supports_squint = supports_moving_targets = exact = pulse_local = in_auto = True
-
-
-def concrete_float(value):
-    """A Python float of a concrete scalar, or None for a tracer."""
-    if is_traced(value):
-        return None
-    return float(np.asarray(value))

@@ -6,11 +6,10 @@ below which the simulator is accurate against the exact model; a :class:`Validit
 the set of them for one (radar, scene, motion, acquisition). Each simulator class
 declares its budgets (``AbstractSimulator.budgets``); this module holds what they share:
 
-* **window and sampling** (every method): the scatterers whose echoes miss the range
-  window (``range_window``, a fraction; exact methods included, since such a run
-  simulates nothing for them), and for the Fourier-domain methods the Doppler band of
-  the echoes over the PRF (``doppler_sampling``: they synthesise the principal band
-  only, the exact model samples the folded part too).
+* **window and grid**: the scatterers whose echoes miss the range window
+  (``range_window``, every method; violated only when nothing is recorded), and for the
+  Fourier-domain methods their azimuth grid (:func:`azimuth_budgets`: the alias bands
+  left out, wrap, extent, sidelobe-only scenes).
 * **the squinted main lobe** (:class:`LobeGeometry`): the deviation terms of every
   (pulse, scatterer) pair within ``|u| ≤ 1``, from which the approximations' phase
   budgets are formed (``sarjax.simulators._tracks``).
@@ -212,20 +211,6 @@ def range_window_budget(radar, scene, motion, acquisition) -> tuple[Budget, ...]
                    f"fraction of scatterers whose echoes miss the range window "
                    f"{float(acquisition.near_range):.6g} … {far:.6g} m (all: the data "
                    "are zero)"),)
-
-
-def doppler_sampling_budget(radar, scene, acquisition) -> tuple[Budget, ...]:
-    """``doppler_sampling``: the echoes' Doppler band (:func:`doppler_band`) over the PRF
-    (threshold 1). The Fourier-domain methods synthesise the principal band only: against
-    the exact model (airborne set, 128 pulses, two targets) NMSE −41 dB at
-    PRF = 2 × 2v/L, −29.5 dB at 0.75 × 2v/L, −2.4 dB at 0.3 × 2v/L."""
-    prf = _concrete(radar.prf)
-    if prf is None:
-        return ()
-    band = doppler_band(radar, scene, acquisition)
-    return (Budget("doppler_sampling", band / float(prf), 1.0,
-                   f"Doppler band of the echoes ({band:.4g} Hz) over the PRF: beyond 1 the "
-                   "azimuth samples alias"),)
 
 
 AMBIGUITY_THRESHOLD = 1e-3  # echo energy of the azimuth ambiguities left out (−30 dB)

@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics.interpolation import next_fast_len
+from ._base import is_traced
 
 
 def within_support(scene, included):
@@ -49,13 +50,6 @@ def pattern_energy_table(pattern):
         return _pattern_energy_table(pattern)
     except TypeError:  # a pattern with array fields is not hashable
         return _pattern_energy_table.__wrapped__(pattern)
-
-
-def pattern_energy_outside(pattern, u_lo, u_hi) -> float:
-    """Fraction of the echo energy ``∫|W²(u)|² du`` outside ``u ∈ [u_lo, u_hi]``."""
-    u, cumulative = pattern_energy_table(pattern)
-    inside = np.interp(u_hi, u, cumulative) - np.interp(u_lo, u, cumulative)
-    return float(max(1.0 - inside, 0.0))
 
 
 class AzimuthSupport(NamedTuple):
@@ -118,7 +112,7 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
     w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
     w1 = w0 + (n - 1) * dx
     x, r = np.broadcast_arrays(*_scene_cells(scene, (w0, w1)))
-    if _is_traced((scene.azimuth, scene.reflectivity)):
+    if is_traced((scene.azimuth, scene.reflectivity)):
         # traced scatterers: judged by the whole echo (every |u|), equally weighted
         weight = np.ones(x.shape)
         u_a, u_b = np.full(x.shape, -np.inf), np.full(x.shape, np.inf)
@@ -206,19 +200,15 @@ class WorkGrid(NamedTuple):
     wrapped: float
 
 
-def _is_traced(value) -> bool:
-    return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(value))
-
-
 def _scene_cells(scene, window=None):
     """(x, r) broadcastable NumPy arrays of the scene's scatterers. Traced azimuths (a
     gradient with respect to them) are taken at the window's ends ``window = (w₀, w₁)``,
     the farthest an in-window scatterer can be (traced ranges cannot size a grid)."""
-    if _is_traced(scene.range):
+    if is_traced(scene.range):
         raise ValueError("the Fourier-domain simulators size their grid from the scatterers' "
                          "ranges: scene.range must be concrete (not differentiated)")
     r = np.asarray(scene.range, float)
-    if _is_traced(scene.azimuth):
+    if is_traced(scene.azimuth):
         if window is None:
             raise ValueError("scene.azimuth is traced")
         return np.asarray(window, float)[:, None], np.array([r.min(), r.max()])[None, :]
@@ -284,7 +274,7 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     rho1 = np.sqrt(r**2 + np.max(a_ends**2, axis=0)) + reach
     kept = reaches & (rho1 >= near) & (rho0 <= far)
     included = kept
-    if _is_traced(scene.azimuth):  # sized for scatterers anywhere in the window: all kept
+    if is_traced(scene.azimuth):  # sized for scatterers anywhere in the window: all kept
         kept = np.ones(x.shape, bool)
         included = np.ones(np.shape(scene.reflectivity), bool)
     if azimuth_padding is None:

@@ -54,11 +54,6 @@ def pattern_term(pattern, order: int):
     return lambda u: jnp.vectorize(f)(u) * scale
 
 
-def azimuth_wavenumbers(radar, n_x):
-    """(n_x,) ξ grid [rad/m] of an n_x-point azimuth DFT at the pulse spacing."""
-    return 2 * jnp.pi * jnp.fft.fftfreq(n_x, 1.0) / radar.azimuth_spacing
-
-
 def range_wavenumbers(radar, n_r):
     """(n_r,) η grid [rad/m] of an n_r-point range DFT at the sample spacing."""
     return 2 * jnp.pi * jnp.fft.fftfreq(n_r, 1.0) / radar.range_spacing
