@@ -1,6 +1,8 @@
-"""Reproducibility: the same inputs give bit-identical raw data on a rerun, after the
-compiled programs are dropped, and in a fresh Python process; complex64 output agrees
-with complex128 within a measured, per-method tolerance.
+"""Reproducibility: the same inputs give the same raw data on a rerun, after the
+compiled programs are dropped, and in a fresh Python process (bit for bit for the exact
+time-domain model; to rounding for the FFT-based methods, whose XLA CPU FFT rounds a few
+rows differently depending on its run-time thread split, see tests/_reruns.py); complex64
+output agrees with complex128 within a measured, per-method tolerance.
 
 complex64 against complex128 (geometry and carrier phase are float64 in both; the kernel
 and output are single precision): airborne X-band, 64 pulses × 128 samples, two targets,
@@ -40,6 +42,11 @@ import pytest
 
 import sarjax as sj
 
+try:
+    from _reruns import assert_same_to_rounding
+except ImportError:
+    from tests._reruns import assert_same_to_rounding
+
 NUM_PULSES, NUM_RANGE, NEAR_RANGE = 64, 128, 5100.0
 RADAR = sj.presets.airborne_xband(chirp_duration=1e-6, num_pulses=NUM_PULSES,
                                   num_range=NUM_RANGE, near_range=NEAR_RANGE)
@@ -67,13 +74,20 @@ def _digest(data):
     return hashlib.sha256(np.ascontiguousarray(data).tobytes()).hexdigest()
 
 
-# ---- bit-identical reruns ----------------------------------------------------------
+# ---- reruns --------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("method", ["time_domain", "time_domain_nufft", "moderate_deviation"])
-def test_rerun_is_bit_identical(method):
+def test_rerun_is_bit_identical():
+    """The exact model sums per pulse without an FFT: the same bits."""
+    first = _simulate("time_domain")
+    assert np.array_equal(_simulate("time_domain"), first)
+    assert np.all(np.isfinite(first)) and np.abs(first).max() > 0.5
+
+
+@pytest.mark.parametrize("method", ["time_domain_nufft", "moderate_deviation"])
+def test_rerun_is_the_same_to_rounding(method):
     first = _simulate(method)
-    assert np.array_equal(_simulate(method), first)
+    assert_same_to_rounding(_simulate(method), first)
     assert np.all(np.isfinite(first)) and np.abs(first).max() > 0.5
 
 
@@ -83,21 +97,22 @@ def test_recompiled_program_is_bit_identical():
     assert _digest(_simulate("time_domain")) == _digest(first)
 
 
-def test_fresh_process_is_bit_identical(tmp_path):
-    """A new interpreter (new compilation, new thread pools) gives the same bits."""
+def test_fresh_process_reproduces_the_run(tmp_path):
+    """A new interpreter (new compilation, new thread pools) gives the same data: the
+    same bits for the exact model, the same to rounding for ``fourier_2d``."""
     script = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(__import__("pathlib").Path(__file__).parent)!r})
         import test_reproducibility as t
-        for method in ("time_domain", "fourier_2d"):
-            print(method, t._digest(t._simulate(method)))
+        import numpy as np
+        np.save("time_domain.npy", t._simulate("time_domain"))
+        np.save("fourier_2d.npy", t._simulate("fourier_2d"))
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    fresh = dict(line.split() for line in done.stdout.splitlines())
-    here = {method: _digest(_simulate(method)) for method in ("time_domain", "fourier_2d")}
-    assert fresh == here
+    assert _digest(np.load(tmp_path / "time_domain.npy")) == _digest(_simulate("time_domain"))
+    assert_same_to_rounding(np.load(tmp_path / "fourier_2d.npy"), _simulate("fourier_2d"))
 
 
 # ---- complex64 against complex128 --------------------------------------------------
