@@ -51,4 +51,5 @@ from .simulators import TimeDomain as TimeDomain  # noqa: E402
 from .simulators import TimeDomainNUFFT as TimeDomainNUFFT  # noqa: E402
 from .validity import Budget as Budget  # noqa: E402
 from .validity import Validity as Validity  # noqa: E402
+from .validity import explain_choice as explain_choice  # noqa: E402
 from .validity import validity as validity  # noqa: E402

@@ -77,7 +77,12 @@ class RawData(_Gridded):
         azimuth: (azimuth,) pulse positions x' [m].
         range: (range,) range-sample coordinates r' = c t/2 [m].
         method: the simulator that produced it (what ``method="auto"`` chose).
+        method_reason: why ``method="auto"`` chose it (each candidate's estimated cost, or
+            the budget that rules it out; :func:`sarjax.explain_choice`); empty
+            for a method named by the caller.
     """
+
+    method_reason: str = eqx.field(static=True, default="")
 
 
 class Image(_Gridded):
@@ -145,6 +150,7 @@ def to_xarray(product, *, radar=None, scene=None, motion=None, attrs=None):
     if scene is not None:
         variables.update(_scene_variables(scene))
     all_attrs = {"sarjax_product": kind, "method": getattr(product, "method", "") or "",
+                 "method_reason": getattr(product, "method_reason", "") or "",
                  "conventions": "arrays (azimuth, range); metres, seconds, radians, hertz"}
     if radar is not None:
         all_attrs.update({f"radar_{k}": v for k, v in radar_attributes(radar).items()})
@@ -188,7 +194,7 @@ def from_xarray(dataset):
     DataArray on ``("azimuth", "range")`` (taken as raw data)."""
     xr = _xr()
     if isinstance(dataset, xr.DataArray):
-        array, kind, method = dataset, "RawData", ""
+        array, kind, method, reason = dataset, "RawData", "", ""
     else:
         kind = dataset.attrs.get("sarjax_product")
         if kind not in _PRODUCTS:
@@ -197,9 +203,12 @@ def from_xarray(dataset):
         if _VARIABLE[kind] not in dataset:
             raise ValueError(f"the {kind} file holds no {_VARIABLE[kind]!r} variable")
         array, method = dataset[_VARIABLE[kind]], str(dataset.attrs.get("method", ""))
+        reason = str(dataset.attrs.get("method_reason", ""))
     if array.dims != ("azimuth", "range"):
         raise ValueError(f"dims {array.dims} must be ('azimuth', 'range')")
     cls = _PRODUCTS[kind]
     fields = dict(data=np.asarray(array.values), azimuth=np.asarray(array["azimuth"].values),
                   range=np.asarray(array["range"].values))
-    return cls(**fields, method=method) if kind == "RawData" else cls(**fields)
+    if kind == "RawData":
+        return cls(**fields, method=method, method_reason=reason)
+    return cls(**fields)

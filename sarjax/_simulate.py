@@ -18,7 +18,7 @@ from ._memory_plan import MemoryPlan, memory_plan
 from .motion import Motion
 from .scene import PointTargets, ReflectivityGrid
 from .simulators import _registry
-from .validity import choose_method
+from .validity import explain_choice
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,19 +78,19 @@ def _realization(motion, b):
 
 def _choose_batched_method(radar, scene, motion, batch_size, **kwargs):
     """``method="auto"`` for a batch: the most exact of the methods chosen for each
-    realization (the one chosen for the realization that needs the most)."""
+    realization (the one chosen for the realization that needs the most). (name, reason)."""
     if batch_size is None:
-        return choose_method(radar, scene, motion, **kwargs)[0]
-    chosen, rank = None, -1
+        return explain_choice(radar, scene, motion, **kwargs)
+    chosen, rank, reason = None, -1, ""
     order = _registry.method_names(aliases=False)
     for b in range(batch_size):
-        method = choose_method(radar, scene, _realization(motion, b), **kwargs)[0]
+        method, why = explain_choice(radar, scene, _realization(motion, b), **kwargs)
         cls = _registry.simulator_class(method)
         # the exact models after the approximate ones, each in registry order
         this = (cls.exact, order.index(method))
         if chosen is None or this > rank:
-            chosen, rank = method, this
-    return chosen
+            chosen, rank, reason = method, this, f"realization {b} needs it ({why})"
+    return chosen, (f"the most exact of the {batch_size} realizations' choices: {reason}")
 
 
 def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
@@ -122,8 +122,9 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     devices = _sharding.resolve_devices(devices)
     if isinstance(method, np.str_):
         method = str(method)
+    reason = ""
     if isinstance(method, str) and method == _registry.AUTO:
-        method = _choose_batched_method(
+        method, reason = _choose_batched_method(
             radar, scene, motion, batch_size, num_pulses=acquisition.num_pulses,
             num_range=acquisition.num_range, near_range=acquisition.near_range,
             azimuth_center=float(azimuth_center), dtype=dtype, **options,
@@ -139,7 +140,7 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     call = CallPlan(batch_size=batch_size, batch_chunk=memory.batch_chunk,
                     devices=memory.devices, batch_shards=memory.batch_shards,
                     pulse_shards=memory.pulse_shards)
-    return memory.simulator, plan, motion, acquisition, dtype, name, call, memory
+    return memory.simulator, plan, motion, acquisition, dtype, name, call, reason, memory
 
 
 def simulate(
@@ -172,7 +173,8 @@ def simulate(
             ``"moderate_deviation"`` / ``"algorithm_b"`` (§5–6), ``"high_speed"`` (§10),
             ``"chirp_scaling"`` (§9), ``"auto"`` (the cheapest method whose validity
             budgets hold by each simulator's cost model, see :func:`sarjax.validity`,
-            for every realization of a batch; the choice is in ``RawData.method``) or a
+            for every realization of a batch; the choice is in ``RawData.method``, why in
+            ``RawData.method_reason``) or a
             simulator instance. ``sarjax.simulators.method_names()`` lists them.
         num_pulses: pulses N_x (default ``radar.num_pulses``).
         num_range: range samples N_r (default ``radar.num_range``).
@@ -209,15 +211,18 @@ def simulate(
             the estimated peak memory exceeds ``memory_limit`` even at the smallest chunks;
             the message states the estimate and the limit.
     """
-    simulator, plan, motion, acquisition, dtype, name, call, _ = _prepare(
+    simulator, plan, motion, acquisition, dtype, name, call, reason, _ = _prepare(
         radar, scene, motion, method=method, num_pulses=num_pulses, num_range=num_range,
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options,
     )
     if call.devices:
-        return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
-    with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the one named first
-        return _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+        raw = _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+    else:
+        with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
+            raw = _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+    # outside the jit: the reason (costs, budgets) would otherwise key its cache
+    return dataclasses.replace(raw, method_reason=reason) if reason else raw
 
 
 def simulation_memory(

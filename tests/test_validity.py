@@ -18,6 +18,7 @@ The full grid (6 rms × 2 profiles × 4 fractions × 3 ranges × 2 methods) is
 from __future__ import annotations
 
 import itertools
+import re
 
 import numpy as np
 import pytest
@@ -274,6 +275,15 @@ def test_auto_picks_the_cheapest_valid_method(rms, profile, expected):
     motion = acc.make_motion(rms, profile, 0.05) if rms else None
     chosen, report = choose_method(RADAR, scene, motion)
     assert chosen == expected, {m: v.valid for m, v in report.items()}
+    # the reason names the choice's cost first, and the budget of each cheaper method
+    name, reason = sj.explain_choice(RADAR, scene, motion)
+    assert name == chosen
+    assert re.match(rf"cheapest valid by the cost models: {expected} [\d.e+-]+ s "
+                    r"\(compile [\d.e+-]+ \+ steady [\d.e+-]+\)", reason), reason
+    for method, report_ in report.items():
+        if not report_.valid:
+            worst = max(report_.violated, key=lambda b: b.ratio).name
+            assert f"{method}: {worst}=" in reason, (method, reason)
     order = ("fourier_2d", "small_deviation", "moderate_deviation")
     for cheaper in order[: order.index(expected)] if expected in order else order:
         assert not report[cheaper].valid, cheaper
@@ -287,5 +297,8 @@ def test_auto_on_one_point_target_runs_the_exact_model():
     scene = acc.single_target(RANGES[1])
     raw = sj.simulate(RADAR, scene, None, method="auto")
     assert raw.method == "time_domain"
+    assert raw.method_reason.startswith("cheapest valid by the cost models: time_domain ")
+    assert "fourier_2d " in raw.method_reason  # a valid, dearer candidate, with its cost
+    assert sj.simulate(RADAR, scene, None, method="time_domain").method_reason == ""
     assert raw.shape == (RADAR.num_pulses, RADAR.num_range)
     assert np.all(np.isfinite(np.asarray(raw.data)))

@@ -135,17 +135,20 @@ def focus(
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
     if method == "omega_k":
         order = None if motion.is_ideal else (motion_compensation or "none")
-        image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft, azimuth_weighting == "uniform")
+        image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft,
+                               azimuth_weighting == "uniform")
         return Image(data=image, azimuth=raw.azimuth, range=raw.range)
     if method == "backprojection":
-        image_azimuth = raw.azimuth if azimuth is None else jnp.atleast_1d(jnp.asarray(azimuth, float))
+        image_azimuth = (raw.azimuth if azimuth is None
+                         else jnp.atleast_1d(jnp.asarray(azimuth, float)))
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_backprojection(
             radar, data, raw.azimuth, raw.range, motion, image_azimuth, image_range, upsample, n_fft
         )
         return Image(data=image, azimuth=image_azimuth, range=image_range)
     if method == "exact_backprojection":
-        image_azimuth = raw.azimuth if azimuth is None else jnp.atleast_1d(jnp.asarray(azimuth, float))
+        image_azimuth = (raw.azimuth if azimuth is None
+                         else jnp.atleast_1d(jnp.asarray(azimuth, float)))
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_exact_backprojection(
             radar, data, raw.azimuth, raw.range, motion, image_azimuth, image_range, upsample,

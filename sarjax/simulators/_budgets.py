@@ -302,25 +302,54 @@ class LobeGeometry:
         n = num_pulses
         self.dx = dx = float(radar.azimuth_spacing)
         self.x_p = azimuth_center + (np.arange(n) - (n - 1) / 2) * dx
-        dy, dz, self.pointing = (np.asarray(v, float) for v in motion.resolve(n))
-        lam = float(radar.wavelength)
+        self._dy, self._dz, self.pointing = (np.asarray(v, float) for v in motion.resolve(n))
+        self.still = not (np.any(self._dy) or np.any(self._dz))  # no deviation at all
+        self._radar = radar
+        self._lam = lam = float(radar.wavelength)
         self.k0 = 4 * np.pi / lam
         self.eta_max = 2 * np.pi / lam * float(radar.bandwidth) / float(radar.carrier_frequency)
-        length = float(radar.antenna_length)
         self.squint = float(np.asarray(radar.squint))
-        tan_d = math.tan(self.squint)
-        self.xs, self.rs, hs = scene_samples(scene)
+        self.xs, self.rs, self._hs = scene_samples(scene)
+
+    # the (pulse, scatterer) arrays, formed when a budget first asks for them
+
+    @functools.cached_property
+    def along(self):
+        return self.x_p[:, None] - self.xs[None, :]
+
+    @functools.cached_property
+    def lobe(self):
+        tan_d, rs = math.tan(self.squint), self.rs[None, :]
+        ratio = float(self._radar.antenna_length) / self._lam
+        u = ratio * (self.along / rs + tan_d) / (1 - self.along * tan_d / rs)
+        return np.abs(u) <= 1.0
+
+    @functools.cached_property
+    def los(self):
+        return np.asarray(geometry.line_of_sight_deviation(
+            self._dy[:, None], self._dz[:, None], self.rs[None, :], self._hs[None, :],
+            float(self._radar.height)))
+
+    @functools.cached_property
+    def delta_r(self):
+        return np.asarray(geometry.reference_deviation(self._dy, self._dz, self._radar))[:, None]
+
+    @functools.cached_property
+    def psi(self):
+        return self.los - self.delta_r
+
+    @functools.cached_property
+    def nominal(self):
+        return np.sqrt(self.rs[None, :] ** 2 + self.along**2)
+
+    @functools.cached_property
+    def exact(self):
         rs = self.rs[None, :]
-        self.along = self.x_p[:, None] - self.xs[None, :]
-        u = length / lam * (self.along / rs + tan_d) / (1 - self.along * tan_d / rs)
-        self.lobe = np.abs(u) <= 1.0
-        self.los = np.asarray(geometry.line_of_sight_deviation(
-            dy[:, None], dz[:, None], rs, hs[None, :], float(radar.height)))
-        self.delta_r = np.asarray(geometry.reference_deviation(dy, dz, radar))[:, None]
-        self.psi = self.los - self.delta_r
-        self.nominal = np.sqrt(rs**2 + self.along**2)
-        self.exact = rs + np.asarray(geometry.range_offset(self.along, rs, self.los))
-        self.cos_look = rs / self.nominal
+        return rs + np.asarray(geometry.range_offset(self.along, rs, self.los))
+
+    @functools.cached_property
+    def cos_look(self):
+        return self.rs[None, :] / self.nominal
 
     def lobe_max(self, values) -> float:
         """max |values| over the main lobe (0 if no pair is in it)."""

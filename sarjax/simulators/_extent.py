@@ -106,32 +106,43 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
     all the window records, is ``left_out``. ``bands=None``: the fewest (at most
     ``max_bands``) with ``left_out ≤ tolerance``.
     """
+    key = (radar, scene, acquisition.num_pulses, float(acquisition.azimuth_center),
+           tolerance, bands, max_bands)
+    return _kept(_LAST_SUPPORT, key, 2, lambda: _azimuth_support(
+        radar, scene, acquisition, tolerance, bands, max_bands))
+
+
+def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     u_grid, cumulative = pattern_energy_table(radar.pattern)
+    # F(u): the energy fraction below u, monotone, so that the energy over
+    # [max(u_a, c), min(u_b, d)] is min(F(u_b), F(d)) − max(F(u_a), F(c)): the scatterers'
+    # F(u_a), F(u_b) are interpolated once, the bands' edges per range only
+    energy_below = lambda u: np.interp(u, u_grid, cumulative)
     dx = float(radar.azimuth_spacing)
     n = acquisition.num_pulses
     w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
     w1 = w0 + (n - 1) * dx
-    x, r = np.broadcast_arrays(*_scene_cells(scene, (w0, w1)))
+    x, r = _scene_cells(scene, (w0, w1))
+    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
     if is_traced((scene.azimuth, scene.reflectivity)):
         # traced scatterers: judged by the whole echo (every |u|), equally weighted
-        weight = np.ones(x.shape)
-        u_a, u_b = np.full(x.shape, -np.inf), np.full(x.shape, np.inf)
+        weight = np.ones(shape)
+        f_a, f_b = np.zeros(shape), np.ones(shape)
     else:
-        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), x.shape)) ** 2
-        u_a = np.nan_to_num(_pattern_u(radar, w0 - x, r), nan=-np.inf)
-        u_b = np.nan_to_num(_pattern_u(radar, w1 - x, r), nan=np.inf)
-    energy = lambda lo, hi: np.clip(np.interp(hi, u_grid, cumulative)
-                                    - np.interp(lo, u_grid, cumulative), 0.0, None)
-    recorded = float(np.sum(weight * energy(u_a, u_b)))
-    main_lobe = float(np.sum(weight * energy(np.maximum(u_a, -1.0), np.minimum(u_b, 1.0))))
+        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
+        f_a = energy_below(np.nan_to_num(_pattern_u(radar, w0 - x, r), nan=-np.inf))
+        f_b = energy_below(np.nan_to_num(_pattern_u(radar, w1 - x, r), nan=np.inf))
+    seen = lambda lo, hi: np.clip(np.minimum(f_b, hi) - np.maximum(f_a, lo), 0.0, None)
+    per_scatterer = np.clip(f_b - f_a, 0.0, None)
+    recorded = float(np.sum(weight * per_scatterer))
+    main_lobe = float(np.sum(weight * seen(energy_below(-1.0), energy_below(1.0))))
     sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
 
     def left_out(k):
         phi_lo, phi_hi = band_look_angles(radar, k)
-        cov_lo = _pattern_u(radar, -r * math.tan(phi_hi), r)
-        cov_hi = _pattern_u(radar, -r * math.tan(phi_lo), r)
-        seen = energy(np.maximum(u_a, cov_lo), np.minimum(u_b, cov_hi))
-        missed = float(np.sum(weight * (energy(u_a, u_b) - seen)))
+        covered = seen(energy_below(_pattern_u(radar, -r * math.tan(phi_hi), r)),
+                       energy_below(_pattern_u(radar, -r * math.tan(phi_lo), r)))
+        missed = float(np.sum(weight * (per_scatterer - covered)))
         return missed / recorded if recorded > 0 else 0.0
 
     if bands is None:
@@ -140,6 +151,23 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
             bands += 1
     return AzimuthSupport(int(bands), left_out(bands), band_look_angles(radar, bands),
                           max(sidelobes, 0.0))
+
+
+def _kept(slot, key, held, compute):
+    """``compute()``, or the value kept in ``slot`` (a two-item list) for the same key: a
+    call's plan and budgets ask for the same support and grid. The first ``held`` items of
+    the key are compared by identity (the inputs are held, so that their identities cannot
+    be reused), the others by value."""
+    last = slot[0]
+    if last is not None and len(last) == len(key) and all(
+            a is b if i < held else a == b for i, (a, b) in enumerate(zip(last, key, strict=True))):
+        return slot[1]
+    value = compute()
+    slot[0], slot[1] = key, value
+    return value
+
+
+_LAST_SUPPORT = [None, None]  # (the inputs, AzimuthSupport) of the last support decided
 
 
 FRESNEL_ZONES = 6.0  # margin of an echo's azimuth support beyond its band's edges
@@ -164,17 +192,13 @@ def band_grid(radar, scene, motion, acquisition, azimuth_padding, support, **rul
     (:func:`azimuth_support`) and the motion's largest deviation. A call's plan and
     budgets ask for the same grid: the last one is kept (the inputs held, so that their
     identities cannot be reused)."""
-    key = (radar, scene, motion, acquisition.num_pulses, acquisition.num_range,
+    margin = motion_margin(motion)
+    key = (radar, scene, margin, acquisition.num_pulses, acquisition.num_range,
            float(acquisition.near_range), float(acquisition.azimuth_center),
            azimuth_padding, support, tuple(sorted(rules.items())))
-    last = _LAST[0]
-    if last is not None and len(last) == len(key) and all(
-            a is b if i < 3 else a == b for i, (a, b) in enumerate(zip(last, key, strict=True))):
-        return _LAST[1]
-    grid = work_grid(radar, scene, acquisition, azimuth_padding, support=support,
-                     motion_margin=motion_margin(motion), **rules)
-    _LAST[0], _LAST[1] = key, (support, grid)
-    return support, grid
+    return _kept(_LAST, key, 2, lambda: (support, work_grid(
+        radar, scene, acquisition, azimuth_padding, support=support, motion_margin=margin,
+        **rules)))
 
 
 class WorkGrid(NamedTuple):

@@ -108,7 +108,8 @@ class StraightTrack(AbstractTrack):
         return 0
 
     def phase_budgets(self, sim, lobe):
-        return [Budget("epsilon_motion", lobe.k0 * lobe.lobe_max(lobe.los), PHASE_THRESHOLD,
+        value = 0.0 if lobe.still else lobe.k0 * lobe.lobe_max(lobe.los)
+        return [Budget("epsilon_motion", value, PHASE_THRESHOLD,
                        "(4π/λ) max|δr_xr|: the deviation is not modelled")]
 
 
