@@ -98,6 +98,8 @@ def test_config_overrides_presets_and_reproducible_file(tmp_path, capsys):
     assert run.product.shape == (129, 830) and run.radar.num_pulses == 129
     assert run.motion.pointing is None and run.motion.horizontal is not None
     assert run.attrs["simulate_method"] == run.product.method != "auto"
+    assert run.product.method_reason.startswith("cheapest valid by the cost models: "
+                                                f"{run.product.method} ")
     again = run.simulate()  # one file reproduces its run (to the FFT's rerun rounding)
     assert_same_to_rounding(again.data, run.product.data)
 
