@@ -69,7 +69,7 @@ def test_ghost_of_the_exact_model_matches_the_aasr(exact):
     assert abs(measured - formula) <= 1.0
 
 
-@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation"])
+@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation", "chirp_scaling"])
 def test_fourier_methods_show_the_ghost(exact, method):
     """The alias bands give the ghost the exact model has (energy within 3 dB) and the
     same focused target (azimuth IRW within 1.5 %, PSLR within 0.5 dB)."""

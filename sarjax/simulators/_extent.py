@@ -269,7 +269,8 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
       two samples; at least the window, the chirp (+2 samples) and the range walk of an
       echo over the padded azimuth span ``span |sin φ_d|`` (with ``curvature`` also its
       range curvature ``span²/(8 r_min)``, with ``migration`` the range migration at the
-      band edge ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``).
+      edge of the synthesised bands ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``,
+      ``ξ_max = (2 bands + 1) π/Δx``).
     """
     dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
     squint = float(np.asarray(radar.squint))
@@ -281,7 +282,8 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     far = near + (n_range - 1) * dr
     r_max, r_min = float(np.max(r)), float(np.min(r))
     k0 = float(radar.wavenumber)
-    xi_max = math.pi / dx
+    bands = 0 if support is None else support.bands
+    xi_max = (2 * bands + 1) * math.pi / dx  # the synthesised bands' edge
     look = band_look_angles(radar, 0) if support is None else support.look
     # azimuth support of each scatterer [m], with FRESNEL_ZONES Fresnel zones √(λr/2) on
     # each side: where the pattern is still high at the band's edge (a PRF below the
