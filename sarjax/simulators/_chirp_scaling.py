@@ -81,7 +81,7 @@ class ChirpScaling(AbstractPrincipalBandSimulator):
 
     Attributes:
         azimuth_padding: None (default): the azimuth grid holds every scatterer's echo
-            support that reaches the window, within the principal Doppler band
+            support that reaches the window, within the synthesised Doppler bands
             (``_extent.work_grid``); a number: that many footprints X on each side
             (0: the seed's circular setup; ``azimuth_window`` says what wraps).
         reference_range: r_ref [m]; None = the middle of the range window (the listing's

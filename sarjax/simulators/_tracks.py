@@ -114,10 +114,11 @@ class StraightTrack(AbstractTrack):
 
 
 class AbstractPrincipalBandSimulator(AbstractSimulator):
-    """A Fourier-domain model of the straight track that synthesises the principal
-    Doppler band only, on the grid of ``_extent.work_grid`` (chirp scaling, high speed):
-    it refuses motion, reports the straight track's budgets and the azimuth ambiguities
-    it leaves out, and ``method="auto"`` does not choose it. ``grid_rules``: the range
+    """A Fourier-domain model of the straight track only (chirp scaling, high speed), on
+    the grid of ``_extent.work_grid``: it refuses motion, reports the straight track's
+    budgets and the azimuth ambiguities it leaves out (by default the principal Doppler
+    band is synthesised; chirp scaling overrides ``grid`` to add alias bands), and
+    ``method="auto"`` does not choose it. ``grid_rules``: the range
     terms its echoes need (``work_grid``'s keywords)."""
 
     motion: ClassVar[str] = "straight"
