@@ -89,59 +89,79 @@ def choose_method(radar, scene, motion=None, *, num_pulses=None, num_range=None,
     compile); for extended scenes the Fourier-domain methods are.
 
     Candidates are the registered simulators that declare ``in_auto`` and support the
-    scene (squint, moving scatterers). Returns (name, {name: Validity});
-    :func:`explain_choice` says why.
+    scene (squint, moving scatterers); they are checked cheapest first, and the dearer
+    ones are neither checked nor (when their compile time alone costs more) planned once
+    one is valid. Returns (name, {name: Validity}
+    of the candidates checked); :func:`explain_choice` says why.
     """
-    name, report, _ = _choose(radar, scene, motion, num_pulses=num_pulses,
-                              num_range=num_range, near_range=near_range,
-                              azimuth_center=azimuth_center, dtype=dtype, **options)
+    name, report, _, _ = _choose(radar, scene, motion, num_pulses=num_pulses,
+                                 num_range=num_range, near_range=near_range,
+                                 azimuth_center=azimuth_center, dtype=dtype, **options)
     return name, report
 
 
 def explain_choice(radar, scene, motion=None, **kwargs) -> tuple[str, str]:
     """(name, reason) of ``method="auto"`` (same arguments as :func:`choose_method`): the
-    reason lists each candidate's estimated cost or the budget that rules it out, e.g.
+    reason lists the candidates by estimated cost, each with its cost and, for those
+    checked (the cheaper ones, up to the first valid), the budget that rules it out, e.g.
     ``"cheapest valid by the cost models: time_domain 0.41 s (compile 0.40 + steady
-    0.01); fourier_2d 5.2 s (…); small_deviation: epsilon_11=0.3 > 0.1"``. It is kept in
+    0.01); not checked, dearer: fourier_2d 5.2 s, …"``. It is kept in
     ``RawData.method_reason``."""
-    name, report, costs = _choose(radar, scene, motion, **kwargs)
-    parts = []
+    name, report, costs, unplanned = _choose(radar, scene, motion, **kwargs)
+    ruled_out, dearer = [], []
     for method, cost in sorted(costs.items(), key=lambda item: item[1].total()):
-        parts.append(f"{method} {cost.total():.3g} s (compile {cost.compile:.3g} + steady "
-                     f"{cost.steady:.3g})")
-    for method, validity_ in report.items():
-        if not validity_.valid:
-            worst = max(validity_.violated, key=lambda b: b.ratio)
-            parts.append(f"{method}: {worst.name}={worst.value:.3g} > {worst.threshold:.3g}")
-        elif method not in costs:
-            parts.append(f"{method}: cannot run this scene")
-    if not costs:
-        return name, "no candidate is valid: the exact model (" + "; ".join(parts) + ")"
+        if method not in report:
+            dearer.append(f"{method} {cost.total():.3g} s")
+        elif not report[method].valid:
+            worst = max(report[method].violated, key=lambda b: b.ratio)
+            ruled_out.append(f"{method} {cost.total():.3g} s: {worst.name}="
+                             f"{worst.value:.3g} > {worst.threshold:.3g}")
+    if name not in report or not report[name].valid:
+        return name, "no candidate is valid, so the exact model: " + "; ".join(ruled_out)
+    cost = costs[name]
+    parts = [f"{name} {cost.total():.3g} s (compile {cost.compile:.3g} + steady "
+             f"{cost.steady:.3g})"]
+    if ruled_out:
+        parts.append("cheaper but not valid: " + "; ".join(ruled_out))
+    dearer += [f"{method} ≥ {floor:.3g} s" for method, floor in unplanned.items()]
+    if dearer:
+        parts.append("not checked, dearer: " + ", ".join(dearer))
     return name, "cheapest valid by the cost models: " + "; ".join(parts)
 
 
 def _choose(radar, scene, motion=None, *, num_pulses=None, num_range=None, near_range=None,
             azimuth_center=0.0, dtype="complex128", **options):
-    """(name, {name: Validity}, {name: Cost} of the valid candidates)."""
+    """(name, {name: Validity} of the candidates checked, {name: Cost} of those planned,
+    {name: compile time} of those not planned, dearer than the choice).
+    Candidates are checked cheapest first and the first valid one is taken: the budgets
+    of dearer ones are not evaluated, and one whose ``compile_time`` alone exceeds the
+    valid choice's cost is not even planned."""
     motion = Motion() if motion is None else motion
     acquisition = _acquisition(radar, num_pulses, num_range, near_range, azimuth_center)
     moving = any(hasattr(scene, f) and bool(np.any(np.asarray(getattr(scene, f)) != 0))
                  for f in ("velocity_range", "velocity_azimuth"))
     squinted = float(radar.squint) != 0.0
-    report, costs = {}, {}
-    for cls in _registry.auto_candidates():
-        if (squinted and not cls.supports_squint) or (moving and not cls.supports_moving_targets):
+    classes = [cls for cls in _registry.auto_candidates()
+               if (cls.supports_squint or not squinted)
+               and (cls.supports_moving_targets or not moving)]
+    classes.sort(key=lambda cls: cls.compile_time)  # a lower bound of each one's cost
+    simulators, costs, report = {}, {}, {}
+    while True:
+        unchecked = [n for n in costs if n not in report]
+        best = min(unchecked, key=lambda n: costs[n].total(), default=None)
+        if classes and (best is None or classes[0].compile_time < costs[best].total()):
+            # a candidate not planned yet may be cheaper than the best planned one
+            name = classes.pop(0).names[0]
+            simulator = _simulator(name, options)
+            try:
+                plan = simulator.prepare(radar, scene, acquisition, motion)
+            except ValueError:  # e.g. a grid off the pulse lattice: not this method
+                continue
+            simulators[name] = simulator
+            costs[name] = simulator.cost(plan, radar, scene, acquisition, dtype)
             continue
-        name = cls.names[0]
-        simulator = _simulator(name, options)
-        report[name] = simulator.budgets(radar, scene, motion, acquisition)
-        if not report[name].valid:
-            continue
-        try:
-            plan = simulator.prepare(radar, scene, acquisition, motion)
-        except ValueError:  # e.g. a grid off the pulse lattice: not this method
-            continue
-        costs[name] = simulator.cost(plan, radar, scene, acquisition, dtype)
-    if not costs:
-        return "time_domain", report, costs
-    return min(costs, key=lambda n: costs[n].total()), report, costs
+        if best is None:
+            return "time_domain", report, costs, {}
+        report[best] = simulators[best].budgets(radar, scene, motion, acquisition)
+        if report[best].valid:
+            return best, report, costs, {cls.names[0]: cls.compile_time for cls in classes}

@@ -31,6 +31,7 @@ the Fourier-domain methods synthesise in double precision and round once at the 
 from __future__ import annotations
 
 import hashlib
+import os
 import subprocess
 import sys
 import textwrap
@@ -93,8 +94,13 @@ def test_rerun_is_the_same_to_rounding(method):
 
 def test_recompiled_program_is_bit_identical():
     first = _simulate("time_domain")
-    jax.clear_caches()  # the next call traces and compiles again
-    assert _digest(_simulate("time_domain")) == _digest(first)
+    jax.clear_caches()  # the next call traces and compiles again (not from the disk cache)
+    enabled = jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", False)
+    try:
+        assert _digest(_simulate("time_domain")) == _digest(first)
+    finally:
+        jax.config.update("jax_enable_compilation_cache", enabled)
 
 
 def test_fresh_process_reproduces_the_run(tmp_path):
@@ -108,8 +114,9 @@ def test_fresh_process_reproduces_the_run(tmp_path):
         np.save("time_domain.npy", t._simulate("time_domain"))
         np.save("fourier_2d.npy", t._simulate("fourier_2d"))
     """)
+    env = {**os.environ, "JAX_ENABLE_COMPILATION_CACHE": "false"}  # compiles afresh
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          timeout=600, cwd=tmp_path)
+                          timeout=600, cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr
     assert _digest(np.load(tmp_path / "time_domain.npy")) == _digest(_simulate("time_domain"))
     assert_same_to_rounding(np.load(tmp_path / "fourier_2d.npy"), _simulate("fourier_2d"))

@@ -67,6 +67,8 @@ class AbstractSimulator(eqx.Module):
             against the exact model).
         accepts_motion: False for a straight-track model that refuses any motion (rather
             than ignoring it).
+        compile_time: its cost model's compile time [s], a lower bound of its cost that
+            ``method="auto"`` knows before planning (it plans no dearer candidate).
     """
 
     names: ClassVar[tuple[str, ...]] = ()
@@ -78,6 +80,7 @@ class AbstractSimulator(eqx.Module):
     pulse_local: ClassVar[bool] = False
     in_auto: ClassVar[bool] = False
     accepts_motion: ClassVar[bool] = True
+    compile_time: ClassVar[float] = 0.0
 
     @abc.abstractmethod
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):

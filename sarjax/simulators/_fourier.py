@@ -117,6 +117,7 @@ class AbstractFourierSimulator(AbstractSimulator):
     track: ClassVar = StraightTrack()
     supports_squint: ClassVar[bool] = True
     in_auto: ClassVar[bool] = True
+    compile_time: ClassVar[float] = 5.0
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -190,7 +191,7 @@ class AbstractFourierSimulator(AbstractSimulator):
         steady = self.track.fft_equivalents * 8e-9 * n_x * n_r
         if not isinstance(scene, ReflectivityGrid):
             steady += 3e-9 * engine.range_line_count(scene) * n_x * n_r
-        return Cost(compile=5.0, steady=steady)
+        return Cost(compile=self.compile_time, steady=steady)
 
 
 class Fourier2D(AbstractFourierSimulator):

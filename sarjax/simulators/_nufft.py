@@ -172,6 +172,7 @@ class TimeDomainNUFFT(AbstractExactSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("time_domain_nufft",)
     physics: ClassVar[str] = "physics.md §3, §8, §10 (the exact model by a type-1 NUFFT)"
+    compile_time: ClassVar[float] = 2.0
 
     tolerance: float = eqx.field(static=True, default=1e-4)
     range_bands: int = eqx.field(static=True, default=2)
@@ -242,7 +243,7 @@ class TimeDomainNUFFT(AbstractExactSimulator):
         per element); compile ≈ 2 s."""
         _, _, grid, _ = self.sizes(plan)
         per_pulse = scene.num_scatterers * 1.7e-8 + 8e-9 * grid * np.log2(max(grid, 2))
-        return Cost(compile=2.0, steady=acquisition.num_pulses * per_pulse)
+        return Cost(compile=self.compile_time, steady=acquisition.num_pulses * per_pulse)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if isinstance(scene, ReflectivityGrid):

@@ -285,6 +285,7 @@ class TimeDomain(AbstractExactSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("time_domain",)
     physics: ClassVar[str] = "physics.md §3, §8, §10 (seed 000 eq. 19–20; seed 004 eq. 1–5)"
+    compile_time: ClassVar[float] = 0.5
 
     stop_and_go: bool = eqx.field(static=True, default=True)
     pulse_chunk: int | None = eqx.field(static=True, default=None)
@@ -323,7 +324,7 @@ class TimeDomain(AbstractExactSimulator):
         (fused kernel, ../shared/spec/platform.md), compile ≈ 0.5 s."""
         rate = 40e6 if np.dtype(dtype) == np.complex64 else 15e6
         work = acquisition.num_pulses * acquisition.num_range * scene.num_scatterers
-        return Cost(compile=0.5, steady=work / rate)
+        return Cost(compile=self.compile_time, steady=work / rate)
 
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
