@@ -53,3 +53,29 @@ from .validity import Budget as Budget  # noqa: E402
 from .validity import Validity as Validity  # noqa: E402
 from .validity import explain_choice as explain_choice  # noqa: E402
 from .validity import validity as validity  # noqa: E402
+
+try:
+    from importlib.metadata import PackageNotFoundError as _NotFound
+    from importlib.metadata import version as _version
+
+    __version__ = _version("sarjax")
+except _NotFound:  # a source tree that is not installed
+    __version__ = "0+unknown"
+
+# the optional-dependency modules are imported when first used (xarray, matplotlib,
+# sarkit load in seconds): ``sj.io``, ``sj.export``, ``sj.plot``
+_LAZY = ("io", "export", "plot")
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'sarjax' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

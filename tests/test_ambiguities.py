@@ -69,13 +69,16 @@ def test_ghost_of_the_exact_model_matches_the_aasr(exact):
     assert abs(measured - formula) <= 1.0
 
 
-@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation", "chirp_scaling"])
-def test_fourier_methods_show_the_ghost(exact, method):
+@pytest.mark.parametrize("method, options", [
+    ("fourier_2d", {}), ("small_deviation", {}), ("chirp_scaling", {}),
+    ("high_speed", {"stop_and_go": True}),  # the exact model's stop-and-go physics
+])
+def test_fourier_methods_show_the_ghost(exact, method, options):
     """The alias bands give the ghost the exact model has (energy within 3 dB) and the
     same focused target (azimuth IRW within 1.5 %, PSLR within 0.5 dB)."""
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a valid run: no ValidityWarning
-        raw = sj.simulate(RADAR, SCENE, method=method)
+        raw = sj.simulate(RADAR, SCENE, method=method, **options)
     image = sj.focus(RADAR, raw, method="omega_k", azimuth_weighting="antenna")
     offset = _ghost_offset(RADAR)
     ref_target, ref_ghost = _energies(exact, offset)

@@ -168,3 +168,17 @@ def test_fit_reports_when_unavailable(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "sarjax.inverse", None)  # as if not installed
     assert sarjax.cli.main(["fit", str(raw), "-o", str(tmp_path / "fit.nc")]) == 2
     assert "not available" in capsys.readouterr().err
+
+
+def test_version_and_lazy_modules(capsys):
+    """``sarjax --version`` and ``sarjax.__version__`` name the installed version; the
+    optional-dependency modules are attributes of the package (imported on first use)."""
+    from importlib.metadata import version
+
+    assert sarjax.cli.main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"sarjax {version('sarjax')}"
+    assert sj.__version__ == version("sarjax")
+    assert sj.io.save is io.save and callable(sj.plot.image_db) and callable(sj.export.to_cphd)
+    assert {"io", "plot", "export"} <= set(dir(sj))
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        sj.nonexistent  # noqa: B018

@@ -63,6 +63,30 @@ def test_cphd_passes_sarkit_consistency_checker(cphd_file):
         assert subprocess.run([exe, str(cphd_file), "--thorough"]).returncode == 0
 
 
+def test_straight_track_cphd_passes_the_checker(tmp_path):
+    """No motion: every pulse has the same TOA window, so ``TOAFixed`` is true (the
+    checker requires the flag to follow the PVPs)."""
+    import sarkit.cphd as skcphd
+    import sarkit.verification as skver
+
+    radar = sj.presets.airborne_xband(num_pulses=129, num_range=160)
+    r = 5140.0
+    scene = sj.PointTargets(azimuth=[0.0], range=[r])
+    raw = sj.simulate(radar, scene, None, near_range=r - 80 * 2.99792458)
+    path = tmp_path / "straight.cphd"
+    to_cphd(path, radar, raw, None)
+    con = _consistency(skver.CphdConsistency, path)
+    assert con.failures() == {}
+    with open(path, "rb") as f:
+        xml = skcphd.Reader(f).metadata.xmltree
+    flags = {name: xml.findtext(f".//{{*}}Parameters/{{*}}{name}")
+             for name in ("FXFixed", "TOAFixed", "SRPFixed")}
+    assert flags == {"FXFixed": "true", "TOAFixed": "true", "SRPFixed": "false"}
+    exe = shutil.which("cphdcheck")
+    if exe is not None:
+        assert subprocess.run([exe, str(path), "--thorough"]).returncode == 0
+
+
 def test_cphd_reads_back_identically_through_sarkit_and_sarpy(demo_case, cphd_file):
     import sarkit.cphd as skcphd
     from sarpy.io.phase_history.converter import open_phase_history

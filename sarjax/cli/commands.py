@@ -17,6 +17,8 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 @click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
              "metrics, fit, check, export, plot.\n\n"
              "Run 'sarjax COMMAND --help' for the options of a command.")
+@click.version_option(package_name="sarjax", prog_name="sarjax",
+                      message="%(prog)s %(version)s")
 def cli():
     pass
 

@@ -232,12 +232,17 @@ def _metadata(lxml_etree, skcphd, reference, radar, raw, track, attrs, core_name
                      "PVPArrayByteOffset": 0}],
         "NumSupportArrays": 0,
     }
+    # the "fixed" flags from the PVPs themselves (a straight track at constant height has
+    # one TOA window for every pulse; the stripmap SRP moves with the beam)
+    fixed = {name: bool(np.all(pvp[a] == pvp[a][0]) and np.all(pvp[b] == pvp[b][0]))
+             for name, (a, b) in (("FX", ("FX1", "FX2")), ("TOA", ("TOA1", "TOA2")),
+                                  ("SRP", ("SRPPos", "SRPPos")))}
     xml["Channel"] = {
-        "RefChId": _CHANNEL, "FXFixedCPHD": True, "TOAFixedCPHD": False,
-        "SRPFixedCPHD": False,
+        "RefChId": _CHANNEL, "FXFixedCPHD": fixed["FX"], "TOAFixedCPHD": fixed["TOA"],
+        "SRPFixedCPHD": fixed["SRP"],
         "Parameters": [{
-            "Identifier": _CHANNEL, "RefVectorIndex": n_pulses // 2, "FXFixed": True,
-            "TOAFixed": False, "SRPFixed": False,
+            "Identifier": _CHANNEL, "RefVectorIndex": n_pulses // 2, "FXFixed": fixed["FX"],
+            "TOAFixed": fixed["TOA"], "SRPFixed": fixed["SRP"],
             "Polarization": {"TxPol": "UNSPECIFIED", "RcvPol": "UNSPECIFIED"},
             "FxC": float(pvp["FX1"][0] + pvp["FX2"][0]) / 2,
             "FxBW": float(pvp["FX2"][0] - pvp["FX1"][0]),

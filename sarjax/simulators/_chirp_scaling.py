@@ -52,7 +52,7 @@ from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, Cost
-from ._tracks import AbstractPrincipalBandSimulator
+from ._tracks import AbstractStraightTrackSimulator
 
 _TWO_PI = 2 * jnp.pi
 
@@ -76,7 +76,7 @@ class ChirpScalingPlan(AbstractPlan):
     bands: int = eqx.field(static=True, default=0)
 
 
-class ChirpScaling(AbstractPrincipalBandSimulator):
+class ChirpScaling(AbstractStraightTrackSimulator):
     """Inverse chirp-scaling simulator (seed 003), see the module docstring.
 
     Attributes:
@@ -86,12 +86,8 @@ class ChirpScaling(AbstractPrincipalBandSimulator):
             (0: the seed's circular setup; ``azimuth_window`` says what wraps).
         reference_range: r_ref [m]; None = the middle of the range window (the listing's
             ``r_ref``).
-        azimuth_aliases: Doppler alias bands ±1 … ±n summed beside the principal one
-            (azimuth ambiguities); None (default): as many as hold all but
-            ``azimuth_tolerance`` of the echo energy, at most ``max_azimuth_aliases``;
-            0: the principal band only (the seed's model).
-        azimuth_tolerance: echo energy left out of the support and the alias bands.
-        max_azimuth_aliases: the most alias bands on each side.
+        azimuth_aliases, azimuth_tolerance, max_azimuth_aliases: the Doppler alias bands
+            (``AbstractStraightTrackSimulator``).
         range_aliases: range-spectrum aliases ±m summed before the range IFFT (the
             hard-edged chirp's spectrum extends past ±f_s/2; 0: the seed's model, −24 dB
             raw NMSE against the exact model for a 5 µs, 45 MHz chirp at f_s = 50 MHz;
@@ -106,18 +102,7 @@ class ChirpScaling(AbstractPrincipalBandSimulator):
 
     azimuth_padding: float | None = eqx.field(static=True, default=None)
     reference_range: float | None = eqx.field(static=True, default=None)
-    azimuth_aliases: int | None = eqx.field(static=True, default=None)
-    azimuth_tolerance: float = eqx.field(static=True, default=extent.AZIMUTH_TOLERANCE)
-    max_azimuth_aliases: int = eqx.field(static=True, default=4)
     range_aliases: int = eqx.field(static=True, default=1)
-
-    def grid(self, radar, scene, motion, acquisition):
-        """(support, grid): the Doppler bands the echo energy needs (principal and alias
-        bands, ``_extent.azimuth_support``) on the grid of ``_extent.work_grid``."""
-        support = extent.azimuth_support(radar, scene, acquisition, self.azimuth_tolerance,
-                                         self.azimuth_aliases, self.max_azimuth_aliases)
-        return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
-                                support, **self.grid_rules)
 
     def prepare(self, radar, scene, acquisition, motion=None) -> ChirpScalingPlan:
         """Check a grid scene; fix the padding and FFT sizes from concrete values."""

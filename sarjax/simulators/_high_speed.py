@@ -68,7 +68,7 @@ from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, Cost
-from ._tracks import AbstractPrincipalBandSimulator
+from ._tracks import AbstractStraightTrackSimulator
 
 _TWO_PI = 2 * jnp.pi
 
@@ -180,12 +180,14 @@ class HighSpeedPlan(AbstractPlan):
     Attributes:
         groups: velocity groups ``((v_r, v_a, indices), ...)`` (indices None: a grid).
         azimuth_pad, range_fft_size: the padded grid's sizes.
+        bands: Doppler alias bands synthesised on each side of the principal one.
     """
 
     groups: tuple = eqx.field(static=True)
     azimuth_pad: int = eqx.field(static=True)
     range_fft_size: int = eqx.field(static=True)
     included: jnp.ndarray
+    bands: int = eqx.field(static=True, default=0)
 
 
 def velocity_groups(radar, scene) -> tuple:
@@ -204,15 +206,18 @@ def velocity_groups(radar, scene) -> tuple:
                  for a, b in np.unique(pairs, axis=0))
 
 
-class HighSpeed(AbstractPrincipalBandSimulator):
+class HighSpeed(AbstractStraightTrackSimulator):
     """High-speed (non-stop-and-go) 2-D Fourier simulator with moving targets, seed 004
     §3; the derivation and steps are in the module docstring.
 
     Attributes:
         stop_and_go: False (default): seed 004's spectrum; True: the stop-and-go one.
         azimuth_padding: None (default): the azimuth grid holds every scatterer's echo
-            support that reaches the window, within the principal Doppler band
+            support that reaches the window, within the synthesised Doppler bands
             (``_extent.work_grid``); a number: that many footprints X on each side.
+        azimuth_aliases, azimuth_tolerance, max_azimuth_aliases: the Doppler alias bands
+            (azimuth ambiguities, ``AbstractStraightTrackSimulator``): each band is the
+            same construction at ``ξ + 2πk/Δx``, summed before the azimuth IFFT.
         range_aliases: range-spectrum aliases ±m summed (the chirp spectrum extends past
             ±f_s/2 when f_s/Δf is close to 1).
         taps: windowed-sinc length of the inverse Stolt interpolation (grids).
@@ -239,9 +244,9 @@ class HighSpeed(AbstractPrincipalBandSimulator):
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
         groups = velocity_groups(radar, scene)
-        _, grid = self.grid(radar, scene, motion, acquisition)
+        support, grid = self.grid(radar, scene, motion, acquisition)
         return HighSpeedPlan(groups, grid.lead, grid.n_r,
-                             jnp.asarray(grid.included, dtype=float))
+                             jnp.asarray(grid.included, dtype=float), support.bands)
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
@@ -249,10 +254,11 @@ class HighSpeed(AbstractPrincipalBandSimulator):
         return int(16 * (3.0 * engine.range_line_count(scene) * n_x + 14.0 * n_x * chunk))
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
-        """≈ 40 FFT2-equivalents of the padded grid per velocity group
+        """≈ 40 FFT2-equivalents of the padded grid per velocity group and Doppler band
         (benchmarks/RESULTS.md, seed 004 Table 1)."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        steady = 40 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
+        steady = (40 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
+                  * (2 * plan.bands + 1))
         return Cost(compile=3.0, steady=steady)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
@@ -300,24 +306,40 @@ class HighSpeed(AbstractPrincipalBandSimulator):
                     -1j * jnp.mod(k0 * ranges, _TWO_PI))
                 groups.append((v_r, v_a, weight, ranges, scene.azimuth[idx]))
 
+        # with alias bands, the lowest bin of the covered ξ range (its partner at the top
+        # is not synthesised) is left out: the covered band stays symmetric about ξ_d
+        lower = -(2 * plan.bands + 1) * jnp.pi / dx + jnp.pi / (n_x * dx)
+
+        def band(band_k, eta_m):
+            """(n_x, chunk) Σ over groups of one Doppler band ξ + 2πk/Δx, range alias η_m."""
+            k = eta_m[None, :] + k0
+            centroid = k * jnp.sin(radar.squint)
+            xi_cells = nearest_alias(xi[:, None], k, radar.squint, dx) + band_k * _TWO_PI / dx
+            keep = (xi_cells - centroid > lower) if plan.bands else True
+            acc = 0.0
+            for v_r, v_a, data, ranges, where in groups:
+                kappa, amplitude, u = spectrum_terms(
+                    radar, xi_cells, k, v_r, v_a, self.stop_and_go)
+                if gridded:
+                    summed, r_ref = _grid_sum(data, ranges, kappa, self.taps)
+                    alias = jnp.round((xi_cells - xi[:, None]) * dx / _TWO_PI)
+                    summed = summed * jnp.exp(-1j * _TWO_PI * alias * where)
+                else:
+                    summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
+                acc = acc + summed * jnp.exp(-1j * kappa * r_ref) * amplitude * radar.pattern(u)
+            return jnp.where(keep, acc, 0.0)
+
         def columns(eta_cols):
             """(n_pulses, chunk) raw range-spectrum columns for range wavenumbers η."""
             total = 0.0
             for m in range(-self.range_aliases, self.range_aliases + 1):
                 eta_m = eta_cols + m * _TWO_PI / dr
-                k = eta_m[None, :] + k0
-                xi_cells = nearest_alias(xi[:, None], k, radar.squint, dx)  # (n_x, chunk)
-                acc = 0.0
-                for v_r, v_a, data, ranges, where in groups:
-                    kappa, amplitude, u = spectrum_terms(
-                        radar, xi_cells, k, v_r, v_a, self.stop_and_go)
-                    if gridded:
-                        summed, r_ref = _grid_sum(data, ranges, kappa, self.taps)
-                        alias = jnp.round((xi_cells - xi[:, None]) * dx / _TWO_PI)
-                        summed = summed * jnp.exp(-1j * _TWO_PI * alias * where)
-                    else:
-                        summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
-                    acc = acc + summed * jnp.exp(-1j * kappa * r_ref) * amplitude * radar.pattern(u)
+                acc = band(0.0, eta_m)
+                if plan.bands:  # the alias bands share one program (a scan over k)
+                    others = jnp.asarray([b for b in range(-plan.bands, plan.bands + 1) if b],
+                                         float)
+                    acc = jax.lax.scan(lambda a, b, eta_m=eta_m: (a + band(b, eta_m), None),
+                                       acc, others)[0]
                 factor = engine.chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near) / dr
                 total = total + acc * factor[None, :]
             along = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]

@@ -113,22 +113,37 @@ class StraightTrack(AbstractTrack):
                        "(4π/λ) max|δr_xr|: the deviation is not modelled")]
 
 
-class AbstractPrincipalBandSimulator(AbstractSimulator):
+class AbstractStraightTrackSimulator(AbstractSimulator):
     """A Fourier-domain model of the straight track only (chirp scaling, high speed), on
-    the grid of ``_extent.work_grid``: it refuses motion, reports the straight track's
-    budgets and the azimuth ambiguities it leaves out (by default the principal Doppler
-    band is synthesised; chirp scaling overrides ``grid`` to add alias bands), and
-    ``method="auto"`` does not choose it. ``grid_rules``: the range
-    terms its echoes need (``work_grid``'s keywords)."""
+    the grid of ``_extent.work_grid`` with the Doppler bands the scene's echo energy needs
+    (principal and alias bands, ``_extent.azimuth_support``): it refuses motion, reports
+    the straight track's budgets and the azimuth ambiguities it leaves out, and
+    ``method="auto"`` does not choose it. ``grid_rules``: the range terms its echoes need
+    (``work_grid``'s keywords).
+
+    Attributes:
+        azimuth_aliases: Doppler alias bands ±1 … ±n summed beside the principal one
+            (azimuth ambiguities); None (default): as many as hold all but
+            ``azimuth_tolerance`` of the echo energy, at most ``max_azimuth_aliases``;
+            0: the principal band only (the seeds' models).
+        azimuth_tolerance: echo energy left out of the support and the alias bands.
+        max_azimuth_aliases: the most alias bands on each side.
+    """
 
     motion: ClassVar[str] = "straight"
     in_auto = accepts_motion = False
     grid_rules: ClassVar[dict] = {}
 
+    azimuth_aliases: int | None = eqx.field(static=True, default=None, kw_only=True)
+    azimuth_tolerance: float = eqx.field(static=True, default=extent.AZIMUTH_TOLERANCE,
+                                         kw_only=True)
+    max_azimuth_aliases: int = eqx.field(static=True, default=4, kw_only=True)
+
     def grid(self, radar, scene, motion, acquisition):
-        """(support, grid): the principal Doppler band (``_extent.work_grid``)."""
-        support = extent.azimuth_support(radar, scene, acquisition, extent.AZIMUTH_TOLERANCE,
-                                         bands=0)
+        """(support, grid): the Doppler bands the echo energy needs on the grid of
+        ``_extent.work_grid``."""
+        support = extent.azimuth_support(radar, scene, acquisition, self.azimuth_tolerance,
+                                         self.azimuth_aliases, self.max_azimuth_aliases)
         return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
                                 support, **self.grid_rules)
 
