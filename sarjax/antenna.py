@@ -11,9 +11,26 @@ from __future__ import annotations
 import abc
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 
 from ._numerics.phasor import sine
+
+
+@eqx.filter_jit
+def evaluate(pattern, u):
+    """``pattern(u)`` as one compiled program (for eager use on concrete values: a
+    pattern's operations run one by one otherwise, each compiled on its first use)."""
+    return pattern(u)
+
+
+@eqx.filter_jit
+def derivative_peak(pattern, order, u):
+    """max over ``u`` of ``|W²⁽ⁿ⁾(u)|``, n = ``order`` (static), by autodiff."""
+    f = pattern.__call__
+    for _ in range(order):
+        f = jax.grad(f)
+    return jnp.max(jnp.abs(jax.vmap(f)(u)))
 
 
 class AbstractPattern(eqx.Module):

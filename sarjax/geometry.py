@@ -11,12 +11,21 @@ float64 (physics.md §3, style Rule 7).
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
+
+
+def _sqrt(x):
+    """√x in NumPy for NumPy input (eager budget checks: no per-operation compile), in
+    JAX otherwise (traced or device arrays)."""
+    if isinstance(x, (np.ndarray, np.floating, float, int)):
+        return np.sqrt(x)
+    return jnp.sqrt(x)
 
 
 def ground_range(slant_range, height, platform_height):
     """y_P = √(r² − (H − h)²) [m]: horizontal distance from the nominal track."""
     drop = platform_height - height
-    return jnp.sqrt((slant_range - drop) * (slant_range + drop))
+    return _sqrt((slant_range - drop) * (slant_range + drop))
 
 
 def line_of_sight_deviation(horizontal, vertical, slant_range, height, platform_height):
@@ -37,7 +46,7 @@ def line_of_sight_deviation(horizontal, vertical, slant_range, height, platform_
     drop = platform_height - height
     y = ground_range(slant_range, height, platform_height)
     q = horizontal * (horizontal - 2 * y) + vertical * (vertical + 2 * drop)
-    return q / (jnp.sqrt(slant_range**2 + q) + slant_range)
+    return q / (_sqrt(slant_range**2 + q) + slant_range)
 
 
 def range_offset(along_track, slant_range, los_deviation):
@@ -49,7 +58,7 @@ def range_offset(along_track, slant_range, los_deviation):
         los_deviation: δr_xr [m].
     """
     numerator = los_deviation * (2 * slant_range + los_deviation) + along_track**2
-    full = jnp.sqrt((slant_range + los_deviation) ** 2 + along_track**2)
+    full = _sqrt((slant_range + los_deviation) ** 2 + along_track**2)
     return numerator / (full + slant_range)
 
 

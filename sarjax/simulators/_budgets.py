@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import geometry
+from .. import antenna, geometry
 from ..scene import PointTargets, ReflectivityGrid
 
 PHASE_THRESHOLD = 0.1  # [rad]
@@ -332,7 +332,9 @@ class LobeGeometry:
 
     @functools.cached_property
     def delta_r(self):
-        return np.asarray(geometry.reference_deviation(self._dy, self._dz, self._radar))[:, None]
+        radar = self._radar
+        return np.asarray(geometry.line_of_sight_deviation(
+            self._dy, self._dz, float(radar.reference_range), 0.0, float(radar.height)))[:, None]
 
     @functools.cached_property
     def psi(self):
@@ -363,12 +365,9 @@ class LobeGeometry:
 
 @functools.lru_cache(maxsize=64)
 def _remainder_coefficient(pattern, order):
-    f = pattern.__call__
-    for _ in range(order + 1):
-        f = jax.grad(f)
     u = jnp.linspace(-2.0, 2.0, 4001)
-    with jax.ensure_compile_time_eval():
-        peak = float(jnp.max(jnp.abs(jnp.vectorize(f)(u))))
+    with jax.ensure_compile_time_eval():  # one compiled program
+        peak = float(antenna.derivative_peak(pattern, order + 1, u))
     return peak / math.factorial(order + 1)
 
 
@@ -387,7 +386,7 @@ def pointing_budget(radar, pointing, order) -> tuple[Budget, float]:
     lam, length = float(radar.wavelength), float(radar.antenna_length)
     pointing_ratio = float(np.max(np.abs(pointing), initial=0.0)) * length / lam
     coef = pattern_remainder_coefficient(radar.pattern, order)
-    peak = float(radar.pattern(jnp.asarray(0.0)))
+    peak = float(antenna.evaluate(radar.pattern, jnp.asarray(0.0)))
     pattern_error = coef * pointing_ratio ** (order + 1) / peak
     return Budget("epsilon_az", pattern_error, PATTERN_THRESHOLD,
                   f"pointing expansion remainder, order {order} (seed eq. 21, 37)"), pointing_ratio

@@ -23,6 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import antenna
 from .._numerics.interpolation import next_fast_len
 from ._base import is_traced
 
@@ -34,15 +35,12 @@ def within_support(scene, included):
 
 
 
-_pattern_program = eqx.filter_jit(lambda pattern, u: pattern(u))
-
-
 @functools.lru_cache(maxsize=64)
 def _pattern_energy_table(pattern):
     """(u, cumulative energy fraction of |W²(u)|² from −∞ to u) on u ∈ [−64, 64]."""
     u = np.linspace(-64.0, 64.0, 2**17 + 1)
     with jax.ensure_compile_time_eval():  # one compiled program, not one per operation
-        energy = np.abs(np.asarray(_pattern_program(pattern, jnp.asarray(u)))) ** 2
+        energy = np.abs(np.asarray(antenna.evaluate(pattern, jnp.asarray(u)))) ** 2
     cumulative = np.cumsum(energy)
     return u, cumulative / cumulative[-1]
 
