@@ -308,6 +308,12 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
                                          radar.range_spacing,
                                          sim.range_aliases if principal else 0,
                                          plan.alias_columns)
+    if len(alias_sets) > 2:  # the aliases m ≠ 0 share one program: their columns together
+        everything = jnp.arange(n_r)
+        cols = jnp.concatenate([everything if c is None else jnp.asarray(c)
+                                for _, c, _ in alias_sets[1:]])
+        alias_sets = [alias_sets[0],
+                      (1, cols, jnp.concatenate([e for _, _, e in alias_sets[1:]]))]
     # ---- scene → range lines F_j(ξ) -------------------------------------------------------
     gridded = prepared.gridded and ranges.shape[0] > 1
     sets = None

@@ -239,7 +239,8 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
     ``Σ_terms s(x')ⁿ IFFT_ξ[A_i(ξ, η) w(ξ)](x') · e^{−j(η + k₀) δr(x')}`` on the acquired
     pulses (seed 000 eq. 22–24), with ``A_i`` made by ``produce`` for the block's columns.
     A block of ``block`` columns (its synthesis, transpose, inverse FFTs and per-pulse
-    products) stays in cache; the blocks run in ``loops`` independent loops.
+    products) stays in cache; ``loops`` blocks are processed at once (one loop over the
+    blocks, vectorised over ``loops``: one compiled body).
 
     Args:
         produce: (size,) η → list of (size, n_x) spectra A_i(ξ, η).
@@ -306,19 +307,17 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
             acc = acc * unit_phasor(-(eta_block[:, None] + wavenumber) * delta_r[None, :])
         return acc
 
-    n_blocks = n_c // block
-    per_loop = -(-n_blocks // max(loops, 1)) if n_blocks else 0
-    parts = []
-    start = 0
-    while start < n_blocks * block:
-        count = min(per_loop, n_blocks - start // block)
-        chunk = eta[start:start + count * block].reshape(count, block)
-        out = jax.lax.map(run, chunk) if count > 1 else run(chunk[0])[None]
-        parts.append(out.reshape(count * block, num_pulses))
-        start += count * block
-    if n_c - start:
-        parts.append(run(eta[start:]))
-    return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=0)
+    # one compiled body for every block: the columns are padded (with the last η, cut
+    # off after) to ``loops`` × blocks, and the loops are one vmapped map
+    loops = max(int(loops), 1)
+    block = max(1, min(block, -(-n_c // loops)))
+    per_loop = -(-n_c // (loops * block))
+    padded = loops * per_loop * block
+    if padded > n_c:
+        eta = jnp.concatenate([eta, jnp.broadcast_to(eta[-1], (padded - n_c,))])
+    chunks = eta.reshape(loops, per_loop, block)
+    out = jax.vmap(lambda chunk: jax.lax.map(run, chunk))(chunks)
+    return out.reshape(padded, num_pulses)[:n_c]
 
 
 # --------------------------------------------------------------------------------------
