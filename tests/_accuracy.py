@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import warnings
 
 import jax
 import numpy as np
@@ -247,7 +248,10 @@ def accuracy(radar, scene_target, motion, method, weighting=None) -> Accuracy:
         raw_key = digest(radar, scene_target, motion, method)
         raw = _RAW.get(raw_key)
         if raw is None:
-            raw = sj.simulate(radar, scene_target, motion, method=method)
+            with warnings.catch_warnings():
+                # measured valid or not: the callers judge the verdict (sj.validity)
+                warnings.simplefilter("ignore", sj.ValidityWarning)
+                raw = sj.simulate(radar, scene_target, motion, method=method)
             _RAW.clear()  # keep only the latest (52 MB each)
             _RAW[raw_key] = raw
         image = focus(radar, raw, motion, weighting)

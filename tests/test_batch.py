@@ -90,14 +90,19 @@ def test_batch_equals_single_calls_fourier(method):
 @pytest.mark.parametrize("method", ["time_domain_nufft", "small_deviation",
                                     "moderate_deviation"])
 def test_batch_of_8_equals_8_single_calls_every_method(method):
-    _check_batch_equals_singles(method, 8)
+    """As the CI test: the cm-level realizations are outside small_deviation's ε13 (it
+    says so); the batch must still equal the single calls."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sj.ValidityWarning)
+        _check_batch_equals_singles(method, 8)
 
 
 @pytest.mark.slow
 def test_batch_fourier_2d_ignores_motion():
     """The ideal 2-D simulator ignores motion: every realization is the straight track."""
     horizontal, vertical, pointing = _realizations(3)
-    raw = _simulate(sj.Motion(horizontal=horizontal, pointing=pointing), "fourier_2d")
+    with pytest.warns(sj.ValidityWarning, match="epsilon_motion"):  # and says so
+        raw = _simulate(sj.Motion(horizontal=horizontal, pointing=pointing), "fourier_2d")
     ideal = _simulate(None, "fourier_2d")
     assert raw.data.shape == (3, NUM_PULSES, NUM_RANGE)
     for b in range(3):

@@ -11,6 +11,7 @@ estimate must bound it (ratio ≥ 1) without being useless (ratio ≤ 3; measure
 from __future__ import annotations
 
 import re
+import warnings
 
 import jax.numpy as jnp
 import numpy as np
@@ -222,9 +223,13 @@ def _simulation_ratio(method, num_pulses, num_range, scene, **options):
     ideal = method in ("fourier_2d", "high_speed", "chirp_scaling")
     motion = sj.Motion() if ideal else sj.Motion(horizontal=0.01 * np.sin(3 * x),
                                                  pointing=1e-4 * np.cos(5 * x))
-    plan = sj.simulation_memory(radar, scene, motion, method=method, num_pulses=num_pulses,
-                                num_range=num_range, near_range=NEAR_RANGE, devices=1,
-                                **options)
+    with warnings.catch_warnings():
+        # the memory does not depend on the motion's size; small_deviation's ε13 budget
+        # flags this 1 cm motion at 256 pulses (a ValidityWarning, an error under pytest)
+        warnings.simplefilter("ignore", sj.ValidityWarning)
+        plan = sj.simulation_memory(radar, scene, motion, method=method,
+                                    num_pulses=num_pulses, num_range=num_range,
+                                    near_range=NEAR_RANGE, devices=1, **options)
     acquisition = Acquisition(num_pulses=num_pulses, num_range=num_range,
                               near_range=NEAR_RANGE, azimuth_center=0.0)
     compiled = _simulate_module._run.lower(

@@ -35,6 +35,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -67,8 +68,12 @@ def _motion():
 
 def _simulate(method, dtype=jnp.complex128):
     motion = None if method in WITHOUT_MOTION else _motion()
-    return np.asarray(sj.simulate(RADAR, SCENE, motion, method=method, dtype=dtype,
-                                  near_range=NEAR_RANGE).data)
+    with warnings.catch_warnings():
+        # runs are compared with each other (reruns, complex64 against complex128), not
+        # with the exact model: small_deviation's ε13 flags this 1.5 cm motion
+        warnings.simplefilter("ignore", sj.ValidityWarning)
+        return np.asarray(sj.simulate(RADAR, SCENE, motion, method=method, dtype=dtype,
+                                      near_range=NEAR_RANGE).data)
 
 
 def _digest(data):
@@ -128,8 +133,7 @@ def test_fresh_process_reproduces_the_run(tmp_path):
 def _float32_errors(method):
     """(NMSE [dB], rms phase error [rad] within 20 dB of the peak) of complex64 output."""
     double = _simulate(method)
-    single = sj.simulate(RADAR, SCENE, None if method in WITHOUT_MOTION else _motion(),
-                         method=method, dtype=jnp.complex64, near_range=NEAR_RANGE).data
+    single = _simulate(method, jnp.complex64)
     assert single.dtype == jnp.complex64
     single = np.asarray(single).astype(complex)
     nmse = 10 * np.log10(np.sum(np.abs(single - double) ** 2) / np.sum(np.abs(double) ** 2))

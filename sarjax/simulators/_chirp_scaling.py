@@ -123,7 +123,9 @@ class ChirpScaling(AbstractStraightTrackSimulator):
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        return int(16 * (2.4 * n_x * plan.range_fft_size + 0.1 * acquisition.num_pulses
+        # one (n_x, n_r) spectrum more per range alias, alive together before their sum
+        grids = 2.4 + 1.0 * 2 * self.range_aliases
+        return int(16 * (grids * n_x * plan.range_fft_size + 0.1 * acquisition.num_pulses
                          * plan.range_fft_size))
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
