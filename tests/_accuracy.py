@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-import warnings
 
 import jax
 import numpy as np
@@ -248,10 +247,7 @@ def accuracy(radar, scene_target, motion, method, weighting=None) -> Accuracy:
         raw_key = digest(radar, scene_target, motion, method)
         raw = _RAW.get(raw_key)
         if raw is None:
-            with warnings.catch_warnings():
-                # measured valid or not: the callers judge the verdict (sj.validity)
-                warnings.simplefilter("ignore", sj.ValidityWarning)
-                raw = sj.simulate(radar, scene_target, motion, method=method)
+            raw = sj.simulate(radar, scene_target, motion, method=method)
             _RAW.clear()  # keep only the latest (52 MB each)
             _RAW[raw_key] = raw
         image = focus(radar, raw, motion, weighting)

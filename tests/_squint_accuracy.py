@@ -14,8 +14,6 @@ overridden, smooth random Δy, Δz of a given rms and the seed 000 eq. 55 pointi
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 import sarjax as sj
@@ -74,10 +72,7 @@ def accuracy(radar, scene, motion, method, **kw) -> acc.Accuracy:
     ref, _ = reference(radar, scene, motion, **kw)
     x = float(np.asarray(scene.azimuth)[0])
     r = float(np.asarray(scene.range)[0])
-    with warnings.catch_warnings():
-        # measured valid or not: the callers judge the verdict (sj.validity)
-        warnings.simplefilter("ignore", sj.ValidityWarning)
-        raw = sj.simulate(radar, scene, motion, method=method, **kw)
+    raw = sj.simulate(radar, scene, motion, method=method, **kw)
     image = focus(radar, raw, motion, x, r)
     return acc.compare(raw, image, ref, x, r, method=method)
 

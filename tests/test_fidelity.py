@@ -120,3 +120,13 @@ def test_no_warning_means_accurate(method, case):
 @given(case=scenes())
 def test_no_warning_means_accurate_many(method, case):
     _check(method, case)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known gap: at 30° squint the window records only the leading 44 m (6 %) of this "
+    "target's 5 µs chirp (beam-centre range 5854 m, window ends at 5523 m); the Fourier "
+    "methods reach −24.9 dB there without a warning. A budget for scatterers whose window "
+    "records only a chirp end would make them warn"))
+@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation"])
+def test_a_chirp_end_recorded_alone(method):
+    _check(method, (30.0, 2927.1658647914023, 5070.0, 0.0))
