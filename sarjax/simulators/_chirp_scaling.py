@@ -43,7 +43,6 @@ from __future__ import annotations
 from typing import ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -196,10 +195,7 @@ class ChirpScaling(AbstractStraightTrackSimulator):
             rd = rd * jnp.exp(1j * (b_m * curv)[:, None] * offsets**2)
             return rd[:, :n_range] * keep[:, None]
 
-        total = band(0.0)
-        if plan.bands:  # the alias bands share one program (a scan over k = ±1 … ±bands)
-            others = jnp.asarray([k for k in range(-plan.bands, plan.bands + 1) if k], float)
-            total = jax.lax.scan(lambda acc, k: (acc + band(k), None), total, others)[0]
+        total = engine.add_alias_bands(band(0.0), band, plan.bands)
         raw = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]  # step 5
         return raw.astype(dtype)
 

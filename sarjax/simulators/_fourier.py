@@ -32,7 +32,6 @@ from types import SimpleNamespace
 from typing import ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 
 from .. import geometry
@@ -280,15 +279,10 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
         return SimpleNamespace(**{**vars(ctx), "xi": xi, "kz": jnp.sqrt(k0**2 - xi**2),
                                   "keep": keep})
 
-    total = _band(sim, plan, band_ctx(0), motion, acquisition, True, n_r, block)  # (η, x')
-    if plan.bands:
-        # the alias bands share one program (a scan over k = ±1 … ±bands)
-        def alias(acc, band):
-            part = _band(sim, plan, band_ctx(band), motion, acquisition, False, n_r, block)
-            return acc + part, None
-
-        others = jnp.asarray([k for k in range(-plan.bands, plan.bands + 1) if k], float)
-        total = jax.lax.scan(alias, total, others)[0]
+    total = engine.add_alias_bands(  # (η, x')
+        _band(sim, plan, band_ctx(0), motion, acquisition, True, n_r, block),
+        lambda k: _band(sim, plan, band_ctx(k), motion, acquisition, False, n_r, block),
+        plan.bands)
     raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
     return raw.astype(dtype)
 

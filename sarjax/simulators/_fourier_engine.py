@@ -447,7 +447,16 @@ def alias_column_count(radar, n_r, tolerance):
     return _alias_column_count(*key)
 
 
-_chirp_spectrum_program = jax.jit(lambda b, half, eta: _chirp_spectrum(b, half, eta))
+_chirp_spectrum_program = jax.jit(_chirp_spectrum)
+
+
+def add_alias_bands(principal, band, bands):
+    """``principal + Σ_{k = ±1 … ±bands} band(k)``: the Doppler alias bands ξ + 2πk/Δx
+    (azimuth ambiguities) summed in one scan, so that they share one compiled program."""
+    if not bands:
+        return principal
+    others = jnp.asarray([k for k in range(-bands, bands + 1) if k], float)
+    return jax.lax.scan(lambda acc, k: (acc + band(k), None), principal, others)[0]
 
 
 @functools.lru_cache(maxsize=256)

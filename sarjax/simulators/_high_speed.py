@@ -334,12 +334,8 @@ class HighSpeed(AbstractStraightTrackSimulator):
             total = 0.0
             for m in range(-self.range_aliases, self.range_aliases + 1):
                 eta_m = eta_cols + m * _TWO_PI / dr
-                acc = band(0.0, eta_m)
-                if plan.bands:  # the alias bands share one program (a scan over k)
-                    others = jnp.asarray([b for b in range(-plan.bands, plan.bands + 1) if b],
-                                         float)
-                    acc = jax.lax.scan(lambda a, b, eta_m=eta_m: (a + band(b, eta_m), None),
-                                       acc, others)[0]
+                acc = engine.add_alias_bands(band(0.0, eta_m),
+                                             lambda k, eta_m=eta_m: band(k, eta_m), plan.bands)
                 factor = engine.chirp_spectrum(radar, eta_m) * jnp.exp(1j * eta_m * near) / dr
                 total = total + acc * factor[None, :]
             along = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]
