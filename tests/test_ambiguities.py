@@ -26,7 +26,7 @@ from sarjax.metrics import azimuth_ambiguity_ratio, point_target_metrics
 R0 = 5140.0
 X0 = -160.0  # the target; its +1 ghost at X0 + 320 m, inside the window
 NUM_PULSES, NUM_RANGE = 4096, 256  # ±512 m: the target's echo and its +1 band inside
-RADAR = sj.presets.airborne_xband(chirp_duration=2e-6, num_pulses=NUM_PULSES,
+RADAR = sj.presets.airborne_xband(chirp_duration=5e-6, num_pulses=NUM_PULSES,
                                   num_range=NUM_RANGE,
                                   near_range=R0 - NUM_RANGE // 2 * 2.99792458)
 SCENE = sj.PointTargets(azimuth=[X0], range=[R0])

@@ -26,6 +26,10 @@ DX = float(RADAR.azimuth_spacing)
 # every echo (± cτ/4 = 75 m) inside the window 5100 … 5481 m; one Fourier azimuth padding
 RANGES = (5180.0, 5300.0)
 
+# properties of each model whether or not it matches the exact model: a 1 µs chirp's ends
+# cost the Fourier methods −21 dB (their chirp_edges budget warns; test_fidelity checks it)
+pytestmark = pytest.mark.filterwarnings("ignore::sarjax.ValidityWarning")
+
 PROPERTY = settings(max_examples=12, deadline=None, derandomize=True, database=None)
 
 ranges = st.floats(*RANGES)

@@ -114,11 +114,15 @@ class AbstractSimulator(eqx.Module):
 
         Every method reports the range window (scatterers whose echo misses it are not
         recorded: only a window that records nothing is a violation); the Fourier-domain
-        methods add their grid's (``window_budgets``) and the approximate ones their
+        methods add their grid's (``window_budgets``) and the chirp ends' Gibbs residual
+        (``chirp_edges``), and the approximate ones their
         approximation budgets (:mod:`sarjax.simulators._budgets`).
         """
         found = list(_budgets.range_window_budget(radar, scene, motion, acquisition))
         found += self.window_budgets(radar, scene, motion, acquisition)
+        if not self.exact:  # synthesised from the chirp's spectrum: its ends ring
+            found += _budgets.chirp_edge_budget(radar, scene, motion, acquisition,
+                                                getattr(self, "range_aliases", 0))
         approximations, pointing_ratio = self.approximation_budgets(
             radar, scene, motion, acquisition)
         return _budgets.Validity(self.names[0], tuple(approximations) + tuple(found),
