@@ -45,6 +45,10 @@ def _measure(image, r, half_window=32):
     return None
 
 
+FIGURES = ("raw_amplitude.png", "motion.png", "image_moco_db.png", "image_no_moco_db.png",
+           "cuts_5140.png")  # what run_demo writes
+
+
 def run_demo(out_dir="sarjax_demo", *, num_pulses=None, log=print):
     """Simulate, focus, measure and plot; returns the table rows.
 

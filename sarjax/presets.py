@@ -9,6 +9,7 @@ from __future__ import annotations
 import jax
 import numpy as np
 
+from ._names import unknown_names
 from .constants import SPEED_OF_LIGHT
 from .radar import Radar
 
@@ -18,7 +19,7 @@ __all__ = ["airborne_xband", "spaceborne_cband", "spaceborne_cband_extended", "h
 def _build(defaults: dict, overrides: dict) -> Radar:
     unknown = set(overrides) - set(Radar.__dataclass_fields__)
     if unknown:
-        raise ValueError(f"unknown radar parameter(s) {sorted(unknown)}")
+        raise ValueError(unknown_names("radar parameter(s)", unknown, Radar.__dataclass_fields__))
     for name, value in overrides.items():
         if name == "pattern" or isinstance(value, jax.core.Tracer):
             continue

@@ -35,7 +35,8 @@ jitter = 0.05
 method = "time_domain"
 """
 
-COMMANDS = ("demo", "simulate", "focus", "metrics", "fit", "check", "export", "plot")
+COMMANDS = ("demo", "simulate", "focus", "metrics", "fit", "check", "config", "export",
+            "plot")
 
 
 def _shell(*args, cwd):
@@ -116,7 +117,7 @@ def test_bad_input_gives_one_line_and_status_2(tmp_path, capsys):
         (["simulate", str(tmp_path / "run.toml"), "-o", str(tmp_path / "a.nc"),
           "--set", "radar.wobble=1"], "wobble"),
         (["focus", str(tmp_path / "run.toml"), "-o", str(tmp_path / "b.nc")], "cannot read"),
-        (["export", str(tmp_path / "x.nc"), "-o", "y", "--format", "sicd"], "sicd"),
+        (["export", str(tmp_path / "x.nc"), "-o", "y", "--format", "sidd"], "sidd"),
         (["frobnicate"], "frobnicate"),
     ]
     for args, needle in cases:
@@ -182,3 +183,36 @@ def test_version_and_lazy_modules(capsys):
     assert {"io", "plot", "export"} <= set(dir(sj))
     with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
         sj.nonexistent  # noqa: B018
+
+
+def test_config_example_check_and_did_you_mean(tmp_path, capsys):
+    """``config --example`` prints a configuration that builds a run and names every key
+    the reader accepts; ``check CONFIG`` reports that run's budgets; a misspelt key is
+    answered with the closest valid one and the list."""
+    from sarjax.cli import config
+
+    assert sarjax.cli.main(["config", "--example"]) == 0
+    example = capsys.readouterr().out
+    assert example == config.EXAMPLE
+    for key in (*config.SCENE_KEYS, *config.MOTION_KEYS, *config.ACQUISITION_KEYS):
+        assert f"{key} =" in example, key
+    (tmp_path / "run.toml").write_text(example)
+    assert sarjax.cli.main(["check", str(tmp_path / "run.toml"),
+                            "--set", "radar.num_pulses=129"]) == 0
+    report = capsys.readouterr().out
+    assert "method='auto' would choose:" in report and "chirp_edges" in report
+    for args, hint in ((["--set", "scene.azimth=1"], "did you mean 'azimuth'?"),
+                       (["--set", "motion.jiter=1"], "did you mean 'jitter'?"),
+                       (["--set", "radar.nmu_pulses=3"], "did you mean 'num_pulses'?"),
+                       (["--set", "simulte.method=auto"], "did you mean 'simulate'?")):
+        assert sarjax.cli.main(["check", str(tmp_path / "run.toml"), *args]) == 2
+        err = capsys.readouterr().err
+        assert hint in err and "known:" in err, err
+
+
+def test_demo_keeps_earlier_figures_without_force(tmp_path, capsys):
+    """An earlier demo's figure in the output folder is not replaced without --force."""
+    (tmp_path / "motion.png").write_bytes(b"earlier")
+    assert sarjax.cli.main(["demo", "-o", str(tmp_path), "--pulses", "65"]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert (tmp_path / "motion.png").read_bytes() == b"earlier"

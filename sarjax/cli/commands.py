@@ -9,13 +9,13 @@ from pathlib import Path
 
 import click
 
-from .config import PRESETS, Fail, load_config
+from .config import ACQUISITION_KEYS, PRESETS, Fail, load_config
 
 _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
 @click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
-             "metrics, fit, check, export, plot.\n\n"
+             "metrics, fit, check, config, export, plot.\n\n"
              "Run 'sarjax COMMAND --help' for the options of a command.")
 @click.version_option(package_name="sarjax", prog_name="sarjax",
                       message="%(prog)s %(version)s")
@@ -77,10 +77,18 @@ def _load(path, kind):
 @click.option("-o", "--out", default="sarjax_demo", show_default=True,
               type=click.Path(file_okay=False), help="output folder for the PNG figures")
 @click.option("--pulses", type=int, default=None, help="number of pulses (default 1941)")
-def demo(out, pulses):
+@click.option("--force", is_flag=True, help="replace the figures of an earlier demo in OUT")
+def demo(out, pulses, force):
     """Simulate, focus and measure the seed 000 airborne case; write PNG figures."""
-    from ..demo import format_table, run_demo
+    from ..demo import FIGURES, format_table, run_demo
 
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise Fail(f"output {folder} is a file, not a folder")
+    earlier = sorted(name for name in FIGURES if (folder / name).exists())
+    if earlier and not force:
+        raise Fail(f"{folder} holds figures of an earlier demo ({', '.join(earlier)}); "
+                   "pass --force to replace them")
     t0 = time.perf_counter()
     rows = run_demo(out, num_pulses=pulses)
     click.echo()
@@ -282,6 +290,9 @@ def _fit_motion_function():
 
 
 @cli.command(context_settings=_CONTEXT)
+@click.argument("config", required=False, type=click.Path(dir_okay=False))
+@click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="override a configuration entry of CONFIG (repeatable)")
 @click.option("--preset", type=click.Choice(sorted(PRESETS)), default="airborne",
               show_default=True)
 @click.option("--deviation", type=float, default=0.02, show_default=True,
@@ -294,10 +305,22 @@ def _fit_motion_function():
               help="target ranges [m]")
 @click.option("--pulses", type=int, default=None)
 @click.option("--seed", type=int, default=1, show_default=True)
-def check(preset, deviation, cycles, jitter, ranges, pulses, seed):
-    """Validity budgets of the approximate simulators (no simulation)."""
+def check(config, overrides, preset, deviation, cycles, jitter, ranges, pulses, seed):
+    """Validity budgets of every simulator (no simulation): of the run a TOML CONFIG
+    describes (as 'sarjax simulate' would run it), or of the options' preset scene."""
     from ..scene import PointTargets
 
+    if config is not None:
+        from .config import build_run
+
+        radar, scene, motion, sim = build_run(load_config(config, overrides))
+        click.echo(f"{config}: {sim['num_pulses']} pulses, {scene.azimuth.size} targets, "
+                   f"method {sim['method']!r}")
+        acquisition = {key: sim[key] for key in ACQUISITION_KEYS if key in sim}
+        for line in method_report(radar, scene, None if motion.is_ideal else motion,
+                                  **acquisition):
+            click.echo(line)
+        return
     radar, motion = _check_radar_motion(preset, pulses, deviation, cycles, jitter, seed)
     target_ranges = _ranges(ranges)
     scene = PointTargets(azimuth=[0.0] * len(target_ranges), range=target_ranges)
@@ -336,27 +359,44 @@ def _ranges(ranges):
         raise Fail(f"--ranges {ranges!r}: expected comma-separated numbers") from None
 
 
-def method_report(radar, scene, motion):
+def method_report(radar, scene, motion, **acquisition):
     """Yields the validity report of every registered simulator (the registry's order),
     then the line naming the one ``method='auto'`` would choose."""
     from ..simulators import method_names
     from ..validity import choose_method, validity
 
     for method in method_names(aliases=False):
-        yield str(validity(radar, scene, motion, method=method))
-    yield f"method='auto' would choose: {choose_method(radar, scene, motion)[0]}"
+        yield str(validity(radar, scene, motion, method=method, **acquisition))
+    yield (f"method='auto' would choose: "
+           f"{choose_method(radar, scene, motion, **acquisition)[0]}")
+
+
+# ---- config -----------------------------------------------------------------------------
+
+
+@cli.command(name="config", context_settings=_CONTEXT)
+@click.option("--example", is_flag=True, required=True,
+              help="print a commented configuration with every key")
+def config_command(example):
+    """Print a commented TOML configuration of 'sarjax simulate' with every key."""
+    from .config import EXAMPLE
+
+    click.echo(EXAMPLE, nl=False)
 
 
 # ---- export, plot -----------------------------------------------------------------------
 
 
 @cli.command(context_settings=_CONTEXT)
-@click.argument("raw_file", type=click.Path(dir_okay=False))
-@_out_option("output file (.cphd or .crsd)")
-@click.option("--format", "fmt", type=click.Choice(["cphd", "crsd"]), required=True,
-              help="CPHD 1.1.0 (FX domain) or CRSD 1.0 (raw chirped echoes)")
+@click.argument("in_file", type=click.Path(dir_okay=False))
+@_out_option("output file (.cphd, .crsd, or .nitf for SICD)")
+@click.option("--format", "fmt", type=click.Choice(["cphd", "crsd", "sicd"]), required=True,
+              help="CPHD 1.1.0 (FX domain) or CRSD 1.0 (raw chirped echoes) of a raw-data "
+                   "file; SICD 1.4.0 (complex slant-plane image) of an image file")
 @click.option("--track", type=click.Choice(["true", "nominal"]), default="true",
-              show_default=True, help="antenna positions written into the file")
+              show_default=True, help="antenna positions written into the file (CPHD, "
+                                      "CRSD; a SICD carries the nominal track it is "
+                                      "focused on)")
 @click.option("--latitude", type=float, default=52.0, show_default=True,
               help="latitude of the scene reference point [deg]")
 @click.option("--longitude", type=float, default=5.0, show_default=True,
@@ -366,20 +406,29 @@ def method_report(radar, scene, motion):
 @click.option("--side", type=click.Choice(["L", "R"]), default="R", show_default=True,
               help="side of the track the scene is on")
 @_force
-def export(raw_file, out, fmt, track, latitude, longitude, heading, side, force):
-    """Export a raw-data file to an NGA standard file through sarkit."""
+def export(in_file, out, fmt, track, latitude, longitude, heading, side, force):
+    """Export a raw-data file (CPHD, CRSD) or an image file (SICD) to an NGA standard
+    file through sarkit."""
     from .. import export as export_
 
     _check_output(out, force)
-    run = _load(raw_file, "RawData")
+    run = _load(in_file, "Image" if fmt == "sicd" else "RawData")
     reference = export_.GeoReference(latitude=latitude, longitude=longitude,
                                       heading=heading, side_of_track=side)
-    writer = export_.to_cphd if fmt == "cphd" else export_.to_crsd
     with _progress(1, f"export {fmt}") as bar:
-        writer(out, run.radar, run.product, run.motion, track=track, reference=reference,
-               overwrite=force)
+        if fmt == "sicd":
+            # ω-k records its weighting; back-projection keeps the antenna's
+            weighting = run.attrs.get("focus_weighting") or (
+                "antenna" if run.attrs.get("focus_method") == "backprojection" else "uniform")
+            export_.to_sicd(run.product, out, run.radar, azimuth_weighting=weighting,
+                            reference=reference, overwrite=force)
+        else:
+            writer = export_.to_cphd if fmt == "cphd" else export_.to_crsd
+            writer(out, run.radar, run.product, run.motion, track=track,
+                   reference=reference, overwrite=force)
         bar.update()
-    click.echo(f"wrote {out} ({fmt.upper()}, {track} track)")
+    click.echo(f"wrote {out} ({fmt.upper()}, "
+               f"{'nominal' if fmt == 'sicd' else track} track)")
 
 
 @cli.command(context_settings=_CONTEXT)

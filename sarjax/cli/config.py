@@ -24,7 +24,8 @@ Keys::
     method = "time_domain"           # or fourier_2d, small_deviation, ..., auto
     dtype = "complex128"
 
-``--set section.key=value`` overrides any entry (value in TOML syntax).
+``--set section.key=value`` overrides any entry (value in TOML syntax);
+``sarjax config --example`` prints :data:`EXAMPLE`, every key with its unit.
 """
 
 from __future__ import annotations
@@ -34,8 +35,52 @@ import math
 import tomllib
 from pathlib import Path
 
+from .._names import unknown_names
+
 PRESETS = {"airborne": "airborne_xband", "cband": "spaceborne_cband",
            "highspeed": "highspeed_xband"}
+
+
+EXAMPLE = """\
+# sarjax simulate CONFIG.toml -o raw.nc   (every key is optional unless marked)
+preset = "airborne"              # airborne | cband | highspeed (sarjax.presets)
+
+[radar]                          # overrides of any Radar field, SI units
+num_pulses = 1025                # pulses [-]
+# num_range = 830                # range samples [-]
+# near_range = 4900.0            # first sample's slant range [m]
+# squint = 0.0                   # squint φ_d [rad]
+# chirp_duration = 5e-6          # τ [s]
+
+[scene]                          # point targets (azimuth and range required)
+azimuth = [0.0, 0.0, 0.0]        # x [m]
+range = [4840.0, 5140.0, 5440.0] # closest-approach slant range r [m]
+reflectivity = [1.0, 1.0, 1.0]   # |γ| [-]
+reflectivity_phase = 0.0         # arg γ [rad], one value or one per target
+height = [0.0, 0.0, 0.0]         # h above the reference plane [m]
+
+[motion]                         # absent: the ideal straight track
+deviation_rms = 0.02             # smooth Δy, Δz rms [m] (sarjax.smooth_deviation)
+max_cycles = 1.0                 # highest deviation cycles per footprint [-]
+seed = 2017                      # random key of the deviations
+jitter = 0.05                    # pointing jitter δ_m in units of λ/L (seed 000 eq. 55)
+jitter_period = 0.1              # T_b in units of T_s
+
+[simulate]
+method = "auto"                  # time_domain | time_domain_nufft | fourier_2d |
+                                 # small_deviation | moderate_deviation | chirp_scaling |
+                                 # high_speed | auto (the fastest valid)
+dtype = "complex128"             # or complex64
+# num_pulses = 1025              # the window: pulses [-] (default: the radar's)
+# num_range = 830                # range samples [-]
+# near_range = 4900.0            # [m]
+# azimuth_center = 0.0           # x' of the window's centre [m]
+# strict = false                 # refuse instead of warning outside a validity budget
+"""
+
+ACQUISITION_KEYS = ("num_pulses", "num_range", "near_range", "azimuth_center")
+SCENE_KEYS = ("azimuth", "range", "reflectivity", "reflectivity_phase", "height")
+MOTION_KEYS = ("deviation_rms", "max_cycles", "seed", "jitter", "jitter_period")
 
 
 class Fail(Exception):
@@ -87,7 +132,7 @@ def _check_sections(config):
     known = {"preset", "radar", "scene", "motion", "simulate"}
     unknown = set(config) - known
     if unknown:
-        raise Fail(f"unknown configuration entries {sorted(unknown)}; known: {sorted(known)}")
+        raise Fail(unknown_names("configuration entries", unknown, known))
     for section in known - {"preset"}:
         if not isinstance(config.get(section, {}), dict):
             raise Fail(f"[{section}] must be a table, got {section} = {config[section]!r}")
@@ -174,7 +219,7 @@ def _scene(config):
         raise ValueError(f"scene.reflectivity_phase has {phase.size} values, "
                          f"scene.reflectivity {amplitude.size}")
     if scene_cfg:
-        raise ValueError(f"unknown [scene] entries {sorted(scene_cfg)}")
+        raise ValueError(unknown_names("[scene] entries", scene_cfg, SCENE_KEYS))
     return PointTargets(azimuth=azimuth, range=range_,
                         reflectivity=amplitude * np.exp(1j * phase), height=height)
 
@@ -191,7 +236,7 @@ def _motion(config, radar, x):
     period = number("motion.jitter_period", motion_cfg.pop("jitter_period", 0.1),
                     positive=True)
     if motion_cfg:
-        raise ValueError(f"unknown [motion] entries {sorted(motion_cfg)}")
+        raise ValueError(unknown_names("[motion] entries", motion_cfg, MOTION_KEYS))
     footprint = float(radar.footprint(radar.reference_range))
     return Motion(
         horizontal=smooth_deviation(x, key=seed, rms=rms, max_cycles=cycles,
