@@ -54,6 +54,7 @@ _MODULE_SECONDS = {
     "test_ambiguities.py": 30, "05_seed004_high_speed.ipynb": 27, "test_export.py": 27,
     "test_gradients.py": 25, "test_fourier_gradients.py": 23, "00_quickstart.ipynb": 20,
     "test_cli.py": 19, "03_seed002_squint.ipynb": 19, "04_seed003_chirp_scaling.ipynb": 18,
+    "test_readme.py": 28, "test_sicd.py": 6,
 }
 
 
