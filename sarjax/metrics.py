@@ -82,16 +82,16 @@ class PointTargetMetrics:
     def header() -> str:
         """Column header matching :meth:`as_row`."""
         return (
-            f"{'IRW az [m]':>11} {'IRW rg [m]':>11} {'PSLR az':>8} {'PSLR rg':>8} "
-            f"{'ISLR az':>8} {'ISLR rg':>8} {'peak az [m]':>14} {'peak rg [m]':>14} "
+            f"{'IRW az [m]':>11} {'IRW rg [m]':>11} {'PSLR az [dB]':>12} {'PSLR rg [dB]':>12} "
+            f"{'ISLR az [dB]':>12} {'ISLR rg [dB]':>12} {'peak az [m]':>14} {'peak rg [m]':>14} "
             f"{'peak [dB]':>9}"
         )
 
     def as_row(self) -> str:
         """One fixed-width line (see :meth:`header`); ratios in dB."""
         return (
-            f"{self.irw_azimuth:11.4f} {self.irw_range:11.4f} {self.pslr_azimuth:8.2f} "
-            f"{self.pslr_range:8.2f} {self.islr_azimuth:8.2f} {self.islr_range:8.2f} "
+            f"{self.irw_azimuth:11.4f} {self.irw_range:11.4f} {self.pslr_azimuth:12.2f} "
+            f"{self.pslr_range:12.2f} {self.islr_azimuth:12.2f} {self.islr_range:12.2f} "
             f"{self.peak_azimuth:14.4f} {self.peak_range:14.4f} {self.peak_db:9.2f}"
         )
 

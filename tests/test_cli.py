@@ -134,6 +134,8 @@ def test_no_overwrite_without_force(tmp_path, capsys):
     args = ["simulate", str(tmp_path / "run.toml"), "-o", str(out), "--set",
             "radar.num_pulses=65"]
     assert sarjax.cli.main(args) == 0
+    log = capsys.readouterr().err  # not a terminal: progress as log lines, no bar
+    assert "sarjax: simulate: step 2/2 done after" in log and "\r" not in log, log
     before = out.stat().st_mtime_ns
     assert sarjax.cli.main(args) == 2
     assert "exists" in capsys.readouterr().err

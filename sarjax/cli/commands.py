@@ -34,12 +34,32 @@ def _out_option(help_text):
 _force = click.option("--force", is_flag=True, help="replace an existing output file")
 
 
+class _StepLog:
+    """Progress as log lines on stderr (``sarjax: simulate: step 1/2 done after 3.1 s``),
+    for a log file or a pipe, where a bar would show nothing."""
+
+    def __init__(self, total, desc):
+        self.total, self.desc, self.done, self.start = total, desc, 0, time.perf_counter()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n=1):
+        self.done += n
+        click.echo(f"sarjax: {self.desc}: step {self.done}/{self.total} done after "
+                   f"{time.perf_counter() - self.start:.1f} s", err=True)
+
+
 def _progress(total, desc):
-    """A tqdm bar on stderr (hidden when stderr is not a terminal)."""
+    """A tqdm bar of ``total`` steps on stderr when it is a terminal; log lines otherwise."""
+    if not sys.stderr.isatty():
+        return _StepLog(total, desc)
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, unit="step", leave=False, disable=None,
-                file=sys.stderr)
+    return tqdm(total=total, desc=desc, unit="step", leave=False, file=sys.stderr)
 
 
 def _check_output(out, force):
