@@ -33,13 +33,16 @@ def raw_amplitude(raw, path=None, *, title="Raw amplitude"):
     return _finish(fig, path)
 
 
-def image_db(image, path=None, *, title="Focused image", dynamic_range=50.0, zoom=None):
-    """Peak-normalised image in dB (−dynamic_range … 0, grey).
+def image_db(image, path=None, *, title="Focused image", dynamic_range=50.0, zoom=None,
+             aspect="auto"):
+    """Peak-normalised image in dB (−dynamic_range … 0, grey), axes in metres.
 
     Args:
         image: :class:`~sarjax.Image`.
         path: PNG path (optional).
         zoom: optional ((x_min, x_max), (r_min, r_max)) window [m].
+        aspect: ``"auto"`` (fill the figure) or ``"equal"`` (a metre is a metre on both
+            axes).
     """
     plt = _plt()
     data = np.abs(np.asarray(image.data))
@@ -48,10 +51,13 @@ def image_db(image, path=None, *, title="Focused image", dynamic_range=50.0, zoo
         (x0, x1), (r0, r1) = zoom
         ia = (az >= x0) & (az <= x1)
         ir = (rg >= r0) & (rg <= r1)
+        if not (ia.any() and ir.any()):
+            raise ValueError(f"zoom={zoom} m holds no pixel of the image (azimuth "
+                             f"{az[0]:.6g} … {az[-1]:.6g} m, range {rg[0]:.6g} … {rg[-1]:.6g} m)")
         data, az, rg = data[ia][:, ir], az[ia], rg[ir]
     db = 20 * np.log10(np.maximum(data / data.max(), 10 ** (-dynamic_range / 20)))
     fig, ax = plt.subplots(figsize=(6, 5))
-    im = ax.imshow(db, aspect="auto", origin="lower", cmap="gray", vmin=-dynamic_range, vmax=0,
+    im = ax.imshow(db, aspect=aspect, origin="lower", cmap="gray", vmin=-dynamic_range, vmax=0,
                    extent=[rg[0], rg[-1], az[0], az[-1]])
     ax.set_xlabel("slant range r [m]")
     ax.set_ylabel("azimuth x [m]")

@@ -218,3 +218,33 @@ def test_demo_keeps_earlier_figures_without_force(tmp_path, capsys):
     assert sarjax.cli.main(["demo", "-o", str(tmp_path), "--pulses", "65"]) == 2
     assert "--force" in capsys.readouterr().err
     assert (tmp_path / "motion.png").read_bytes() == b"earlier"
+
+
+def test_plot_zoom_is_square_around_the_targets(tmp_path, capsys, monkeypatch):
+    """``plot --zoom``: by default a window square in metres around the file's targets
+    (CONFIG: x 0 … 5 m, r 5100 … 5200 m: 50 + 40 m on each side of their centre), target
+    K alone (40 m on each side), a window
+    in metres, or the whole image; a window outside the image is refused."""
+    from sarjax import plot as plot_
+
+    (tmp_path / "run.toml").write_text(CONFIG)
+    raw, image = tmp_path / "raw.nc", tmp_path / "image.nc"
+    assert sarjax.cli.main(["simulate", str(tmp_path / "run.toml"), "-o", str(raw),
+                            "--set", "motion.deviation_rms=0", "--set", "motion.jitter=0"]) == 0
+    assert sarjax.cli.main(["focus", str(raw), "-o", str(image)]) == 0
+    windows = []
+    original = plot_.image_db
+    monkeypatch.setattr(plot_, "image_db", lambda img, **kw: (
+        windows.append((kw["zoom"], kw["aspect"])), original(img, **kw))[1])
+    for k, zoom in enumerate(["targets", "1", "-10,10,5150,5170", "full"]):
+        assert sarjax.cli.main(["plot", str(image), "-o", str(tmp_path / f"{k}.png"),
+                                "--zoom", zoom]) == 0, capsys.readouterr().err
+    (targets, aspect), (one, _), (given, _), full = windows
+    assert targets[1] == pytest.approx((5060.0, 5240.0)) and aspect == "equal"
+    assert targets[0] == pytest.approx((-32.0, 32.0))  # ±90 m clipped to the 257 pulses
+    assert one[0] == pytest.approx((-32.0, 32.0)) and one[1] == pytest.approx((5160.0, 5240.0))
+    assert given == ((-10.0, 10.0), (5150.0, 5170.0))
+    assert full == (None, "auto")
+    assert sarjax.cli.main(["plot", str(image), "-o", str(tmp_path / "x.png"),
+                            "--zoom", "7"]) == 2
+    assert "targets 0 … 1" in capsys.readouterr().err

@@ -456,9 +456,12 @@ def export(in_file, out, fmt, track, latitude, longitude, heading, side, force):
 @_out_option("output PNG")
 @click.option("--dynamic-range", type=float, default=50.0, show_default=True,
               help="image: dB below the peak shown")
+@click.option("--zoom", default="targets", show_default=True, metavar="targets|K|X0,X1,R0,R1",
+              help="image: the window shown, square in metres: around the file's point "
+                   "targets, around target K (0-based), a window in metres, or 'full'")
 @_force
-def plot(file, out, dynamic_range, force):
-    """Plot a file: raw data (amplitude and phase) or an image (dB, grey)."""
+def plot(file, out, dynamic_range, zoom, force):
+    """Plot a file: raw data (amplitude and phase) or an image (dB, grey, axes in metres)."""
     from .. import plot as plot_
     from ..export._common import atomic_write
 
@@ -467,7 +470,56 @@ def plot(file, out, dynamic_range, force):
     if type(run.product).__name__ == "RawData":
         fig = plot_.raw_amplitude_phase(run.product)
     else:
-        fig = plot_.image_db(run.product, dynamic_range=dynamic_range)
+        window = _zoom_window(zoom, run)
+        fig = plot_.image_db(run.product, dynamic_range=dynamic_range, zoom=window,
+                             aspect="auto" if window is None else "equal")
     atomic_write(Path(out), lambda tmp: fig.savefig(tmp, format="png", dpi=110,
                                                     bbox_inches="tight"), overwrite=force)
     click.echo(f"wrote {out}")
+
+
+ZOOM_HALF_WIDTH = 40.0  # [m] shown on each side of a target (about 13 range cells at 3 m)
+
+
+def _zoom_window(zoom, run):
+    """((x0, x1), (r0, r1)) [m] of ``--zoom`` (None: the whole image), square in metres
+    and clipped to the image."""
+    import numpy as np
+
+    from ..scene import PointTargets
+
+    image = run.product
+    az, rg = np.asarray(image.azimuth, float), np.asarray(image.range, float)
+    text = zoom.strip().lower()
+    if text == "full":
+        return None
+    if "," in text:
+        try:
+            x0, x1, r0, r1 = (float(v) for v in text.split(","))
+        except ValueError:
+            raise Fail(f"--zoom {zoom!r}: expected X0,X1,R0,R1 in metres") from None
+        if not (x0 < x1 and r0 < r1):
+            raise Fail(f"--zoom {zoom!r}: expected X0 < X1 and R0 < R1")
+        return (x0, x1), (r0, r1)
+    scene = run.scene
+    if not isinstance(scene, PointTargets):
+        if text == "targets":
+            return None  # no targets to centre on: the whole image
+        raise Fail(f"--zoom {zoom!r}: the file holds no point targets")
+    xs, rs = np.asarray(scene.azimuth, float), np.asarray(scene.range, float)
+    if text != "targets":
+        try:
+            k = int(text)
+        except ValueError:
+            raise Fail(f"--zoom {zoom!r}: expected 'targets', 'full', a target index or "
+                       "X0,X1,R0,R1") from None
+        if not 0 <= k < xs.size:
+            raise Fail(f"--zoom {k}: the file holds targets 0 … {xs.size - 1}")
+        xs, rs = xs[k:k + 1], rs[k:k + 1]
+    centre_x, centre_r = (xs.min() + xs.max()) / 2, (rs.min() + rs.max()) / 2
+    half = max(xs.max() - xs.min(), rs.max() - rs.min()) / 2 + ZOOM_HALF_WIDTH
+    x0, x1 = max(centre_x - half, az[0]), min(centre_x + half, az[-1])
+    r0, r1 = max(centre_r - half, rg[0]), min(centre_r + half, rg[-1])
+    if not (x0 < x1 and r0 < r1):
+        return None  # the targets lie outside the image: show all of it
+    return (x0, x1), (r0, r1)
