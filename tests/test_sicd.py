@@ -2,6 +2,7 @@
 and sarpy, geometry shared with the CPHD export of the same run, and the CLI path."""
 
 import dataclasses
+
 import numpy as np
 import pytest
 
