@@ -80,6 +80,16 @@ def test_shell_walkthrough_runs(tmp_path):
     assert any((tmp_path / "sarjax_demo").glob("*.png"))
     for command in INLINE.findall(README.read_text()):
         _run(["bash", "-euo", "pipefail", "-c", command], tmp_path)
+    # the fit file keeps what comparing it with the truth needs: the error in the fit's
+    # own gauge (means of Δy, Δz removed) is far below the 20 mm deviations
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "fit.nc", engine="h5netcdf") as fitted:
+        attrs = dict(fitted.attrs)
+    assert "horizontal mean" in attrs["fit_fixed"]
+    for name in ("horizontal", "vertical"):
+        assert attrs[f"fit_error_rms_{name}"] < 1e-3, attrs
+        assert 0 < attrs[f"fit_std_rms_{name}"] < 1e-3, attrs
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -284,8 +284,8 @@ def fit(raw_file, out, png, force):
     with _progress(2, "fit") as bar:
         result = fit_motion(run.radar, run.scene, run.product)
         bar.update()
-        attrs = {"fit_chi2": float(result.chi2), "fit_converged": int(bool(result.converged)),
-                 "source": str(raw_file)}
+        summary = fit_summary(result, run.motion)
+        attrs = {"source": str(raw_file), **{f"fit_{k}": v for k, v in summary.items()}}
         io.save(out, run.product, radar=run.radar, scene=run.scene, motion=result.motion,
                 attrs=attrs, overwrite=force)
         bar.update()
@@ -293,8 +293,58 @@ def fit(raw_file, out, png, force):
         from .. import plot
 
         plot.motion_fit(run.product.azimuth, result.motion, truth=run.motion, path=png)
-    click.echo(f"wrote {out}: fitted motion (χ² = {float(result.chi2):.4g}, "
+    click.echo(f"wrote {out}: fitted motion (χ² = {float(result.chi2):.4g} over "
+               f"{result.num_residuals} residuals, "
                f"{'converged' if result.converged else 'not converged'})")
+    for line in _fit_lines(summary):
+        click.echo(line)
+
+
+FIT_UNITS = {"horizontal": ("Δy", 1e3, "mm"), "vertical": ("Δz", 1e3, "mm"),
+             "pointing": ("δ_az", 1e6, "µrad")}
+
+
+def fit_summary(result, truth=None) -> dict:
+    """What a fit file keeps of a :class:`~sarjax.inverse.FitResult` (the attributes
+    ``fit_*``): χ², convergence, solver, noise power, the fitted pulses, the components
+    held fixed (the gauge) and why, the rms CRB standard deviation of each profile, and,
+    with the ``truth`` (a :class:`~sarjax.Motion`), the rms error in the fit's own gauge
+    (:func:`sarjax.inverse.align`: the means of Δy and Δz removed when the fit cannot
+    see them) [m, m, rad]."""
+    import numpy as np
+
+    pulses = np.flatnonzero(np.asarray(result.support))
+    summary = {"chi2": float(result.chi2), "converged": int(bool(result.converged)),
+               "solver": str(result.solver), "noise_power": float(result.noise_power),
+               "support_first_pulse": int(pulses[0]), "support_last_pulse": int(pulses[-1]),
+               "support_pulses": int(pulses.size),
+               "fixed": json.dumps([[f.component, f.reason] for f in result.fixed])}
+    std = result.profile_std()
+    for name in FIT_UNITS:
+        if name in std and std[name] is not None:
+            summary[f"std_rms_{name}"] = float(np.sqrt(np.mean(np.square(std[name]))))
+    if truth is not None:
+        from ..inverse import align
+
+        for name, err in zip(FIT_UNITS, align(result.motion, truth, result), strict=True):
+            summary[f"error_rms_{name}"] = float(np.sqrt(np.mean(np.square(err))))
+    return summary
+
+
+def _fit_lines(summary):
+    """The fit's per-component lines: rms error against the truth (when known) beside
+    the CRB standard deviation, in the fit's gauge."""
+    fixed = [component for component, _ in json.loads(summary["fixed"])]
+    yield (f"pulses {summary['support_first_pulse']} … {summary['support_last_pulse']} fitted"
+           + (f"; held fixed (unobservable): {', '.join(fixed)}" if fixed else ""))
+    for name, (symbol, scale, unit) in FIT_UNITS.items():
+        parts = []
+        if f"error_rms_{name}" in summary:
+            parts.append(f"error vs truth {summary[f'error_rms_{name}'] * scale:.3g} {unit} rms")
+        if f"std_rms_{name}" in summary:
+            parts.append(f"CRB σ {summary[f'std_rms_{name}'] * scale:.3g} {unit} rms")
+        if parts:
+            yield f"  {symbol:5s} " + ", ".join(parts)
 
 
 def _fit_motion_function():
