@@ -51,7 +51,8 @@ class Collection:
         apc: (pulse, 3) antenna phase centre (local) [m]: the true or nominal track.
         velocity: (pulse, 3) its velocity (local) [m/s].
         srp: (pulse, 3) scene reference point of each pulse (local): the ground point at
-            the reference range r₀ abeam the pulse, (x'_p, √(r₀² − H²), 0).
+            closest-approach range r₀ on the beam centre, (x'_p + r₀ tan φ_d, √(r₀² − H²),
+            0) (abeam the pulse at broadside).
         srp_range: (pulse,) |apc − srp| [m].
         ground_reference: √(r₀² − H²) [m].
     """
@@ -89,8 +90,9 @@ def collection(radar, raw, motion: Motion | None, track: str,
     """Lay the acquisition of ``raw`` on the Earth (see :mod:`sarjax.export`)."""
     if track not in TRACKS:
         raise ValueError(f"track={track!r}; choose one of {TRACKS}")
-    if scalar(radar.squint, "radar.squint") != 0.0:
-        raise ValueError(f"radar.squint={float(radar.squint)} ≠ 0: only broadside data export")
+    squint = scalar(radar.squint, "radar.squint")
+    if not abs(squint) < np.pi / 2:
+        raise ValueError(f"radar.squint={squint} rad must lie within (−π/2, π/2)")
     azimuth = np.asarray(raw.azimuth, dtype=float)
     n = azimuth.size
     if n < 2:
@@ -110,8 +112,10 @@ def collection(radar, raw, motion: Motion | None, track: str,
         np.full(n, scalar(radar.velocity, "radar.velocity")),
         np.gradient(dy, tx_time), np.gradient(dz, tx_time)], axis=-1)
     y_ref = float(np.sqrt((r0 - height) * (r0 + height)))
-    srp = np.stack([azimuth, np.full(n, y_ref), np.zeros(n)], axis=-1)
-    anchor = np.array([0.5 * (azimuth[0] + azimuth[-1]), y_ref, 0.0])
+    # each pulse's SRP: the ground point at closest-approach range r₀ on the beam centre,
+    # x = x' + r₀ tan φ_d (the exact model's u = 0; abeam at broadside)
+    srp = np.stack([azimuth + r0 * np.tan(squint), np.full(n, y_ref), np.zeros(n)], axis=-1)
+    anchor = np.array([0.5 * (srp[0, 0] + srp[-1, 0]), y_ref, 0.0])
     frame = LocalFrame(reference, anchor)
     srp_range = np.linalg.norm(apc - srp, axis=-1)
     return Collection(frame, tx_time, apc, velocity, srp, srp_range, y_ref)
@@ -132,14 +136,70 @@ def parameters(radar, raw, track: str, extra: dict | None = None) -> dict[str, s
     return out
 
 
+def receive_geometry(radar, geo: Collection, stop_and_go: bool):
+    """The SRP's one-way-equivalent range c τ_srp / 2 (pulse,) [m] and the antenna's
+    receive positions (pulse, 3) (local).
+
+    Stop-and-go: ``|APC − SRP|`` and the transmit positions. Beyond stop-and-go the
+    antenna moves on along x at v during the echo, its deviation held (the exact model's
+    ``stop_and_go=False``): c τ = |APC − SRP| + |APC + (v τ, 0, 0) − SRP|, solved by
+    fixed-point iteration (the map contracts by v/c per step; four steps reach float64).
+    """
+    if stop_and_go:
+        return geo.srp_range, geo.apc
+    velocity = float(radar.velocity)
+    delay = two_way_delay(geo.srp_range)
+    for _ in range(4):
+        receive = geo.apc + np.outer(velocity * delay, [1.0, 0.0, 0.0])
+        delay = (geo.srp_range + np.linalg.norm(receive - geo.srp, axis=-1)) / SPEED_OF_LIGHT
+    receive = geo.apc + np.outer(velocity * delay, [1.0, 0.0, 0.0])
+    return 0.5 * SPEED_OF_LIGHT * delay, receive
+
+
 def two_way_delay(distance):
     """2 R / c [s]."""
     return 2 * np.asarray(distance, float) / SPEED_OF_LIGHT
 
 
+def realization(raw, motion: Motion | None, index: int):
+    """Realization ``index`` of a batched simulation: its raw data and its motion.
+
+    A batch (``raw.data`` of shape (batch, azimuth, range), from a motion whose
+    components are (batch, azimuth)) is exported one realization at a time, each an
+    acquisition of its own: ``to_cphd(path, radar, *realization(raw, motion, b))``.
+
+    Args:
+        raw: :class:`~sarjax.RawData` with a leading batch axis.
+        motion: the batched :class:`~sarjax.Motion` (components of shape (azimuth,) are
+            shared by every realization) or None.
+        index: the realization, 0 ≤ index < batch.
+
+    Returns:
+        ``(raw_b, motion_b)``: 2-D raw data and per-pulse motion.
+    """
+    data = np.asarray(raw.data)
+    if data.ndim != 3:
+        raise ValueError(f"raw.data of shape {data.shape} is not a batch (batch, azimuth, "
+                         "range)")
+    batch = data.shape[0]
+    if not (isinstance(index, int | np.integer) and -batch <= index < batch):
+        raise ValueError(f"index={index!r} is outside the batch of {batch} realizations")
+    one = dataclasses.replace(raw, data=raw.data[index])
+    if motion is None:
+        return one, None
+    # a (batch, azimuth) component is the realization's own; an (azimuth,) one is shared
+    pick = lambda v: v if v is None or np.ndim(v) < 2 else np.asarray(v)[index]
+    return one, Motion(horizontal=pick(motion.horizontal), vertical=pick(motion.vertical),
+                       pointing=pick(motion.pointing))
+
+
 def check_grid(radar, raw):
     """The raw grid must be the radar's (uniform pulses at v/PRF, samples at c/2f_s)."""
     data = np.asarray(raw.data)
+    if data.ndim == 3:
+        raise ValueError(f"raw.data holds a batch of {data.shape[0]} realizations "
+                         f"{data.shape}: export one at a time, "
+                         "sarjax.export.realization(raw, motion, b)")
     if data.ndim != 2 or not np.iscomplexobj(data):
         raise ValueError(f"raw.data must be 2-D complex (azimuth, range), got {data.shape}, "
                          f"{data.dtype}")
@@ -154,6 +214,21 @@ def check_grid(radar, raw):
                              f"radar's {step!r} m")
 
 
+def _centre_of_dwell(radar, y, slant, t_mid, per_metre):
+    """COD time polynomial in IAC (x, y): ``t_mid + x·per_metre`` on the reference range;
+    squinted, the beam centre crosses a point at closest-approach range r when the pulse
+    is r tan φ_d behind it, ``−(r − r₀) tan φ_d / v`` later than at r₀ (a cubic in y)."""
+    squint = float(radar.squint)
+    if squint == 0.0:
+        return np.array([[t_mid], [per_metre]])
+    late = -(slant - float(radar.reference_range)) * np.tan(squint) / float(radar.velocity)
+    poly = np.zeros((2, 4))
+    poly[0] = np.polynomial.polynomial.polyfit(y, late, 3)
+    poly[0, 0] += t_mid
+    poly[1, 0] = per_metre
+    return poly
+
+
 def scene_area(radar, raw, geo: Collection, reference: GeoReference,
                time_offset: float = 0.0) -> dict:
     """The image area (where a full integration time lies inside the track), its corners,
@@ -161,14 +236,17 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
 
     IAC: uIAY horizontal, away from the track; uIAX = uIAY × up (along the track for
     side L, against it for side R); origin at the IARP. Dwell time: the integration time
-    λr/(Lv) (a cubic in IAC y), or half the track where the track is shorter than two
-    integration times. COD time: the time the pulse abeam the point is at its SRP,
-    ``time_offset`` + x / v + r₀ / c from the middle of the track.
+    λr/(Lv cos² φ_d) (a cubic in IAC y), or half the track where the track is shorter
+    than two integration times. COD time: the time the beam centre crosses the point,
+    ``time_offset`` + x / v + r₀ / (c cos φ_d) from the middle of the track, squinted
+    ``−(r − r₀) tan φ_d / v`` later (:func:`_centre_of_dwell`); the image area is narrowed
+    by that spread so the whole dwell of every point lies inside the track.
     """
     wgs84 = require("sarkit.wgs84")
     height = float(radar.height)
     velocity = float(radar.velocity)
-    range_axis = np.asarray(raw.range, float)
+    # the window's slant range r' sees, on the beam centre, closest-approach range r' cos φ_d
+    range_axis = np.asarray(raw.range, float) * np.cos(float(radar.squint))
     near, far = range_axis[0], range_axis[-1]
     if far <= height:
         raise ValueError(f"far range {far} m does not exceed radar.height={height} m: "
@@ -180,14 +258,26 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
     track_time = float(geo.tx_time[-1])
     y_fit = np.linspace(y_near, y_far, 33)
     slant = np.sqrt((geo.ground_reference + y_fit) ** 2 + height**2)
-    dwell = float(radar.wavelength) * slant / (float(radar.antenna_length) * velocity)
+    squint = float(radar.squint)
+    # the beam's footprint along x at closest-approach range r: λr / (L cos² φ_d)
+    dwell = float(radar.wavelength) * slant / (
+        float(radar.antenna_length) * velocity * np.cos(squint) ** 2)
     if dwell.max() <= 0.5 * track_time:
         dwell_poly = np.polynomial.polynomial.polyfit(y_fit, dwell, 3)
         dwell_max = float(np.polynomial.polynomial.polyval(y_fit, dwell_poly).max())
     else:
         dwell_poly = np.array([0.5 * track_time])
         dwell_max = 0.5 * track_time
-    half_x = velocity * (0.5 * track_time - 0.5 * dwell_max - 2.0 / float(radar.prf))
+    # squinted, the centre of dwell moves by −(r − r₀) tan φ_d / v across the range window
+    cod_shift = float(np.max(np.abs(slant - float(radar.reference_range)))) * abs(
+        np.tan(squint))
+    half_x = velocity * (0.5 * track_time - 0.5 * dwell_max - 2.0 / float(radar.prf)) - (
+        cod_shift)
+    if half_x <= 0.0:
+        raise ValueError(
+            f"the track ({track_time:.3g} s) is shorter than the dwell time ({dwell_max:.3g} s)"
+            f" plus the squinted centre-of-dwell spread ({cod_shift / velocity:.3g} s): no "
+            "image area has its whole aperture recorded; simulate more pulses")
     sign = 1.0 if reference.side_of_track == "L" else -1.0
     x1, x2, y1, y2 = -half_x, half_x, y_near, y_far
     iac_corners = np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]])
@@ -199,7 +289,8 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
     if np.sum(lon * np.roll(lat, -1) - np.roll(lon, -1) * lat) > 0:  # counter-clockwise
         llh_corners = llh_corners[::-1]
     u_iay = geo.frame.axes[1]
-    t_mid = time_offset + 0.5 * track_time + float(radar.reference_range) / SPEED_OF_LIGHT
+    t_mid = time_offset + 0.5 * track_time + float(radar.reference_range) / (
+        SPEED_OF_LIGHT * np.cos(squint))
     line_spacing = float(radar.azimuth_spacing)
     sample_spacing = float(radar.range_spacing) * float(radar.reference_range) / (
         geo.ground_reference)
@@ -209,7 +300,7 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
         num_samples=max(int(round((y2 - y1) / sample_spacing)), 1),
         iarp_ecf=geo.frame.origin, iarp_llh=wgs84.cartesian_to_geodetic(geo.frame.origin),
         u_iax=np.cross(u_iay, geo.frame.up), u_iay=u_iay, llh_corners=llh_corners,
-        cod_poly=np.array([[t_mid], [sign / velocity]]),
+        cod_poly=_centre_of_dwell(radar, y_fit, slant, t_mid, sign / velocity),
         dwell_poly_2d=np.asarray(dwell_poly)[None, :],
         polygon=np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]]),
     )

@@ -15,6 +15,7 @@ from ._common import (
     collection,
     parameters,
     quiet_sarkit,
+    receive_geometry,
     require,
     scalar,
     scene_area,
@@ -84,7 +85,8 @@ def phase_history(radar, raw, srp_range, *, pulse_chunk: int = 256):
 def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
             reference: GeoReference | None = None, core_name: str = "sarjax",
             classification: str = "UNCLASSIFIED", release_info: str = "UNRESTRICTED",
-            attrs: dict | None = None, overwrite: bool = False):
+            attrs: dict | None = None, overwrite: bool = False,
+            stop_and_go: bool | None = None):
     """Write raw data as a CPHD 1.1.0 file (FX domain, one channel).
 
     Conventions (also written into the file's ``CollectionID/Parameter`` list):
@@ -93,9 +95,10 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
       −2π f ΔTOA, ΔTOA = 2 (R − R_srp) / c, at every frequency f = SC0 + k·SCSS of the
       vector; SC0 … cover the chirp band f₀ ± Δf/2 (range compression by the matched
       filter, then the range spectrum, see :func:`phase_history`).
-    * **Reference point**: each pulse's SRP is the ground point at the reference range
-      r₀ abeam the pulse, (x'_p, √(r₀² − H²), 0) in sarjax's frame (a stripmap SRP that
-      moves with the beam; ``SRPFixed`` false). The IARP is the SRP abeam the middle of
+    * **Reference point**: each pulse's SRP is the ground point at closest-approach
+      range r₀ on the beam centre, (x'_p + r₀ tan φ_d, √(r₀² − H²), 0) in sarjax's frame
+      (abeam the pulse at broadside; a stripmap SRP that moves with the beam;
+      ``SRPFixed`` false). The IARP is the SRP of the middle of
       the track; the reference surface is the plane tangent to the ellipsoid there
       (``Planar``), on which sarjax's flat ground lies exactly.
     * **Track**: ``track="true"`` (default) writes the actual antenna positions
@@ -103,10 +106,16 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
       positions (back-projection) focuses the deviations away; ``"nominal"`` writes the
       straight track (x'_p, 0, H), and the deviations stay in the data as errors.
       The phase compensation to the SRP uses the positions written.
-    * **Pulse timing**: TxTime_p = p / PRF from the collection start. sarjax's echo model
-      is stop-and-go (one antenna position per pulse), so RcvPos = TxPos and RcvTime =
-      TxTime + 2 R_srp / c; aFDOP = aFRR1 = aFRR2 = 0 (no fast-time Doppler in the model;
-      the standard allows zeros); TDTropoSRP = 0 (no atmosphere).
+    * **Pulse timing**: TxTime_p = p / PRF from the collection start. With the
+      stop-and-go echo model (one antenna position per pulse) RcvPos = TxPos and
+      RcvTime = TxTime + 2 R_srp / c. Data simulated beyond stop-and-go (``high_speed``,
+      or ``time_domain`` with ``stop_and_go=False``: the antenna moves on at v during
+      the echo) have RcvTime = TxTime + τ_srp with c τ_srp = |TxPos − SRP| +
+      |RcvPos − SRP|, RcvPos = TxPos + (v τ_srp, 0, 0) in sarjax's frame (the pulse's
+      deviation held, as in the echo model), and ΔTOA is taken from τ_srp, so a
+      processor that uses both legs matches the data's delays; aFDOP = aFRR1 = aFRR2 = 0
+      (no fast-time Doppler in the model; the standard allows zeros); TDTropoSRP = 0
+      (no atmosphere).
     * The flat sarjax frame is placed on the Earth by ``reference``
       (:class:`~sarjax.export.GeoReference`): x along ``heading``, y away from the track
       on ``side_of_track``, z along the ellipsoid normal at the IARP.
@@ -121,16 +130,22 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
         core_name, classification, release_info: CPHD identification fields.
         attrs: extra name → value pairs for the parameter list.
         overwrite: replace an existing file.
+        stop_and_go: the echo model of ``raw`` (see Pulse timing); None: False for the
+            output of ``method="high_speed"``, True otherwise.
 
     Returns:
         The path.
     """
     lxml_etree = require("lxml.etree")
     skcphd = require("sarkit.cphd")
+    if stop_and_go is None:
+        stop_and_go = raw.method != "high_speed"
     reference = GeoReference() if reference is None else reference
     check_grid(radar, raw)
     geo = collection(radar, raw, motion, track, reference)
-    signal, sc0, scss = phase_history(radar, raw, geo.srp_range)
+    # one-way-equivalent SRP range c τ_srp / 2 and the antenna's receive positions
+    srp_range, rcv_local = receive_geometry(radar, geo, stop_and_go)
+    signal, sc0, scss = phase_history(radar, raw, srp_range)
     n_pulses, n_samples = signal.shape
     f0 = scalar(radar.carrier_frequency, "radar.carrier_frequency")
     bandwidth = float(radar.bandwidth)
@@ -149,15 +164,15 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
     pvp["TxTime"] = geo.tx_time
     pvp["TxPos"] = apc
     pvp["TxVel"] = vel
-    pvp["RcvTime"] = geo.tx_time + two_way_delay(geo.srp_range)
-    pvp["RcvPos"] = apc
+    pvp["RcvTime"] = geo.tx_time + two_way_delay(srp_range)
+    pvp["RcvPos"] = geo.frame.to_ecf(rcv_local)
     pvp["RcvVel"] = vel
     pvp["SRPPos"] = srp
     pvp["FX1"] = sc0  # the whole sampled band f₀ ± f_s/2 (chirp band and its skirts)
     pvp["FX2"] = sc0 + (n_samples - 1) * scss
     # delays of the saved window (the raw window widened by the chirp half-lengths)
-    pvp["TOA1"] = two_way_delay(near - half_chirp - geo.srp_range)
-    pvp["TOA2"] = two_way_delay(far + half_chirp - geo.srp_range)
+    pvp["TOA1"] = two_way_delay(near - half_chirp - srp_range)
+    pvp["TOA2"] = two_way_delay(far + half_chirp - srp_range)
     pvp["SC0"] = sc0
     pvp["SCSS"] = scss
 
@@ -168,7 +183,8 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
     with quiet_sarkit():
         metadata = _metadata(
             lxml_etree, skcphd, reference, radar, raw, track, attrs, core_name,
-            classification, release_info, pvp, words, n_pulses, n_samples, area)
+            classification, release_info, pvp, words, n_pulses, n_samples, area,
+            stop_and_go)
 
     def write(tmp):
         with open(tmp, "wb") as f, skcphd.Writer(f, metadata) as writer:
@@ -179,7 +195,7 @@ def to_cphd(path, radar, raw, motion=None, *, track: str = "true",
 
 
 def _metadata(lxml_etree, skcphd, reference, radar, raw, track, attrs, core_name,
-              classification, release_info, pvp, words, n_pulses, n_samples, v):
+              classification, release_info, pvp, words, n_pulses, n_samples, v, stop_and_go):
     """The CPHD XML (``v``: the scene and band numbers of :func:`to_cphd`)."""
     f0, bandwidth, tau, fs = v["f0"], v["bandwidth"], v["tau"], v["fs"]
     x1, x2, y1, y2 = v["x1"], v["x2"], v["y1"], v["y2"]
@@ -190,8 +206,11 @@ def _metadata(lxml_etree, skcphd, reference, radar, raw, track, attrs, core_name
         "reference.latitude_deg": reference.latitude, "reference.longitude_deg":
         reference.longitude, "reference.heading_deg": reference.heading,
         "convention.sgn": "-1: phase -2 pi f dTOA, dTOA = 2 (R - R_srp) / c",
-        "convention.srp": "ground point at the reference range abeam each pulse",
-        "convention.positions": "stop-and-go: RcvPos = TxPos, the antenna of pulse p",
+        "convention.srp": "ground point at closest-approach range r0 on each pulse's beam "
+                          "centre (abeam at broadside)",
+        "convention.positions": (
+            "stop-and-go: RcvPos = TxPos, the antenna of pulse p" if stop_and_go else
+            "non-stop-and-go: RcvPos = TxPos + v tau_srp along the track"),
         "convention.frame": "local x along track, y away from the track, z up; "
                             "IARP = SRP of the mid-track time",
         **(attrs or {})})

@@ -75,11 +75,12 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
       antenna at the start of the receive window. sarjax's default echo model is
       stop-and-go (``stop_and_go=True``: one antenna position per pulse, TxPos), so a
       processor matching the data should use TxPos for both legs.
-    * **Antenna**: coordinate frame x along the nominal track, z towards the SRP of the
-      pulse (broadside, the reference range), y = z × x; the one-way pattern is the
+    * **Antenna**: coordinate frame x along the nominal track, z abeam (zero Doppler)
+      towards the reference ground range, y = z × x; the one-way pattern is the
       square root of sarjax's two-way W²(u) along x with u = L·DCX/λ (flat across);
-      the pointing error δ_az steers the electrical boresight: EB DCX = −sin δ_az
-      (sarjax's beam centre sits at x' − r δ_az).
+      the squint φ_d and the pointing error δ_az steer the electrical boresight:
+      EB DCX = sin(φ_d − δ_az) (sarjax's beam centre sits at x' + r tan φ_d − r δ_az;
+      at broadside EB DCX = −sin δ_az).
 
     Args: as :func:`sarjax.export.to_cphd`; ``pattern_samples``: points of the pattern
     table along DCX.
@@ -105,17 +106,19 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
     t_centre = geo.tx_time + tau / 2  # the chirp centres; TxTime (start) = t_p − τ/2 ≥ 0
     apc, vel = geo.apc_ecf, geo.velocity_ecf
 
-    # antenna frame of each pulse (nominal axes) and the steered boresight
+    # antenna frame of each pulse: the nominal axes, ACZ looking abeam (zero Doppler) at
+    # the reference ground range; the squint φ_d and the pointing error δ_az steer the
+    # electrical boresight along DCX (beam centre at x = x' + r tan φ_d − r δ_az)
     along = np.broadcast_to(geo.frame.axes[0], (n_pulses, 3))
-    look = geo.srp - np.stack([geo.apc[:, 0], np.zeros(n_pulses),
-                               np.full(n_pulses, float(radar.height))], axis=-1)
-    look = geo.frame.vector_to_ecf(look / np.linalg.norm(look, axis=-1, keepdims=True))
-    acy = np.cross(look, along)
+    abeam = np.array([0.0, geo.ground_reference, -float(radar.height)])
+    look = geo.frame.vector_to_ecf(abeam / np.linalg.norm(abeam))
+    acy = np.broadcast_to(np.cross(look, along), (n_pulses, 3))
     n = raw.data.shape[0]
     _, _, pointing = (np.asarray(v, float) for v in
                       (motion.resolve(n) if motion is not None else (0, 0, np.zeros(n))))
     pointing = np.broadcast_to(pointing, (n,))
-    boresight = np.stack([-np.sin(pointing), np.zeros(n)], axis=-1)
+    squint = float(radar.squint)
+    boresight = np.stack([np.sin(squint - pointing), np.zeros(n)], axis=-1)
 
     ppp_layout, ppp_bytes = _layout(_PPP)
     pvp_layout, pvp_bytes = _layout(_PVP)
@@ -175,7 +178,7 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
                             "phase -4 pi R / lambda at the centre of its echo",
         "convention.positions": "TxPos: antenna of pulse p (stop-and-go echo model); "
                                 "RcvPos: TxPos + TxVel (RcvStart - TxTime)",
-        "convention.boresight": "EB DCX = -sin(pointing error)",
+        "convention.boresight": "EB DCX = sin(squint - pointing error)",
         **(attrs or {})})
     start = reference.collection_start
 
@@ -242,8 +245,20 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
                                      "NumSamples": n_samples, "SignalArrayByteOffset": 0,
                                      "PVPArrayByteOffset": 0}]},
         }
-        pol = {"PolarizationID": "V", "AmpH": 0.0, "AmpV": 1.0, "PhaseH": 0.0, "PhaseV": 0.0}
         ref_point = {"ECF": area["iarp_ecf"], "IAC": [0.0, 0.0]}
+        reference = n_pulses // 2
+
+        def polarization(position, acx, acy, leg):
+            # the antenna's ACY-polarised field seen from the reference point in the H, V
+            # basis (CRSD D&I 9.4.4; pure V abeam, an H part when squinted)
+            amph, ampv, phaseh, phasev = skcrsd.compute_h_v_pol_parameters(
+                position[reference], acx[reference], acy[reference], area["iarp_ecf"], leg,
+                0.0, 1.0, 0.0, 0.0)
+            return {"PolarizationID": "V", "AmpH": float(amph), "AmpV": float(ampv),
+                    "PhaseH": float(phaseh), "PhaseV": float(phasev)}
+
+        tx_pol = polarization(ppp["TxPos"], ppp["TxACX"], ppp["TxACY"], 1)
+        rcv_pol = polarization(pvp["RcvPos"], pvp["RcvACX"], pvp["RcvACY"], -1)
         xml["TxSequence"] = {
             "RefTxId": _SEQUENCE, "TxWFType": "LFM",
             "Parameters": [{
@@ -252,7 +267,7 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
                 "FxBW": bandwidth, "TXmtMin": tau, "TXmtMax": tau,
                 "TxTime1": float(tx_time[0]), "TxTime2": float(tx_time[-1]),
                 "TxAPCId": "apc", "TxAPATId": "pattern", "TxRefPoint": ref_point,
-                "TxPolarization": pol, "TxRefRadIntensity": 1.0,
+                "TxPolarization": tx_pol, "TxRefRadIntensity": 1.0,
                 "TxRadIntErrorStdDev": 0.0, "TxRefLAtm": 1.0,
             }],
         }
@@ -265,11 +280,11 @@ def to_crsd(path, radar, raw, motion=None, *, track: str = "true",
                 "RcvStartTime1": float(rcv_start[0]), "RcvStartTime2": float(rcv_start[-1]),
                 "FrcvMin": f0 - fs / 2, "FrcvMax": f0 + fs / 2,
                 "RcvAPCId": "apc", "RcvAPATId": "pattern", "RcvRefPoint": ref_point,
-                "RcvPolarization": pol, "RcvRefIrradiance": 1.0,
+                "RcvPolarization": rcv_pol, "RcvRefIrradiance": 1.0,
                 "RcvIrradianceErrorStdDev": 0.0, "RcvRefLAtm": 1.0,
                 "PNCRSD": 1.0, "BNCRSD": 1.0,
                 "SARImage": {"TxId": _SEQUENCE, "RefVectorPulseIndex": n_pulses // 2,
-                             "TxPolarization": pol,
+                             "TxPolarization": tx_pol,
                              "DwellTimes": {"Polynomials": {"CODId": "cod",
                                                             "DwellId": "dwell"}},
                              "ImageArea": image_area},

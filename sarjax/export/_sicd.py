@@ -137,6 +137,12 @@ def to_sicd(image, path, radar, *, track_azimuth=None, azimuth_weighting: str = 
     if data.shape != (x.size, r.size):
         raise ValueError(f"image.data shape {data.shape} does not match the axes "
                          f"({x.size}, {r.size})")
+    if scalar(radar.squint, "radar.squint") != 0.0:
+        # the image's grid is written as RMA/INCA at zero Doppler (RGZERO); a squinted
+        # focus needs the Doppler-centroid polynomials, which are not written
+        raise ValueError(f"radar.squint={float(radar.squint)} ≠ 0: SICD export writes "
+                         "broadside (zero-Doppler) images only; export the raw data "
+                         "(to_cphd, to_crsd) for squinted acquisitions")
     height = scalar(radar.height, "radar.height")
     ground = int(np.searchsorted(r, height, side="right"))  # first row beyond the height
     if ground >= r.size:
