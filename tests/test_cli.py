@@ -210,6 +210,10 @@ def test_config_example_check_and_did_you_mean(tmp_path, capsys):
         assert sarjax.cli.main(["check", str(tmp_path / "run.toml"), *args]) == 2
         err = capsys.readouterr().err
         assert hint in err and "known:" in err, err
+    # a misspelt required key is answered with its correction, not as a missing one
+    (tmp_path / "typo.toml").write_text(example.replace("\nazimuth =", "\nazimth ="))
+    assert sarjax.cli.main(["check", str(tmp_path / "typo.toml")]) == 2
+    assert "did you mean 'azimuth'?" in capsys.readouterr().err
 
 
 def test_demo_keeps_earlier_figures_without_force(tmp_path, capsys):

@@ -206,6 +206,9 @@ def _scene(config):
     from ..scene import PointTargets
 
     scene_cfg = dict(config.get("scene", {}))
+    unknown = {key: value for key, value in scene_cfg.items() if key not in SCENE_KEYS}
+    if unknown:  # first: a misspelt "azimuth" is answered with its correction
+        raise ValueError(unknown_names("[scene] entries", unknown, SCENE_KEYS))
     if "azimuth" not in scene_cfg or "range" not in scene_cfg:
         raise ValueError("the configuration needs [scene] azimuth = [...] and range = [...]")
     azimuth = numbers("scene.azimuth", scene_cfg.pop("azimuth"))
@@ -218,8 +221,6 @@ def _scene(config):
     if phase.size not in (1, amplitude.size):
         raise ValueError(f"scene.reflectivity_phase has {phase.size} values, "
                          f"scene.reflectivity {amplitude.size}")
-    if scene_cfg:
-        raise ValueError(unknown_names("[scene] entries", scene_cfg, SCENE_KEYS))
     return PointTargets(azimuth=azimuth, range=range_,
                         reflectivity=amplitude * np.exp(1j * phase), height=height)
 
