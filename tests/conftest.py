@@ -53,7 +53,7 @@ _MODULE_SECONDS = {
     "test_sharding.py": 37, "test_bad_inputs.py": 37, "test_memory.py": 32,
     "test_batch.py": 30, "test_ambiguities.py": 30, "test_readme.py": 28,
     "test_gradients.py": 25, "test_fourier_gradients.py": 23, "test_cli.py": 19,
-    "test_sicd.py": 6,
+    "test_sicd.py": 6, "test_distributed.py": 30,
 }
 
 

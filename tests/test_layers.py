@@ -42,6 +42,7 @@ LAYERS = {
     "sarjax._memory": 2,
     "sarjax._memory_plan": 2,
     "sarjax._sharding": 2,
+    "sarjax.distributed": 2,
     "sarjax._validate": 2,
     "sarjax.validity": 2,
     # 3: focusing.
