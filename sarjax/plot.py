@@ -224,6 +224,47 @@ def motion_fit(azimuth, fitted, truth=None, path=None, *, title="Motion fit"):
     return _finish(fig, path)
 
 
+def validity_map(dataset, path=None, *, title="Validity map", limit_db=-25.0):
+    """A campaign's raw NMSE against the exact model [dB] over the deviation rms [m]: one
+    panel per method, one line per squint (median over the realizations); runs that
+    warned are marked with crosses, silent ones with dots; the dashed line is the
+    fidelity a valid run must reach (``limit_db``). ``dataset``: a
+    :func:`sarjax.campaign.load` store."""
+    plt = _plt()
+    method = np.array([str(m) for m in np.asarray(dataset["method"].values)])
+    rms = np.asarray(dataset["deviation_rms"].values, float)
+    squint = np.asarray(dataset["squint_deg"].values, float)
+    nmse = np.asarray(dataset["nmse_db"].values, float)
+    warned = np.asarray(dataset["warned"].values)
+    methods = list(dict.fromkeys(method))
+    fig, axes = plt.subplots(1, len(methods), figsize=(4.2 * len(methods), 3.4),
+                             sharey=True, squeeze=False)
+    # a deviation of 0 sits at the left edge of the log axis
+    positive = rms[rms > 0]
+    floor = positive.min() / 3 if positive.size else 1e-3
+    shown = np.where(rms > 0, rms, floor)
+    for ax, m in zip(axes[0], methods, strict=True):
+        for phi in sorted(set(squint)):
+            sel = (method == m) & (squint == phi) & np.isfinite(nmse)
+            if not np.any(sel):
+                continue
+            grid = sorted(set(shown[sel]))
+            median = [np.median(nmse[sel & (shown == g)]) for g in grid]
+            (line,) = ax.plot(grid, median, label=f"squint {phi:g}°")
+            for flag, marker in ((1, "x"), (0, "o")):
+                pick = sel & (warned == flag)
+                ax.plot(shown[pick], nmse[pick], marker, ms=4, color=line.get_color(),
+                        alpha=0.6)
+        ax.axhline(limit_db, ls="--", color="k", lw=0.8)
+        ax.set_xscale("log")
+        ax.set(title=m, xlabel="deviation rms [m] (left edge: none)")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("raw NMSE vs exact [dB]")
+    axes[0][0].legend(fontsize=8, title="× warned, ● silent", title_fontsize=8)
+    fig.suptitle(title)
+    return _finish(fig, path)
+
+
 def _finish(fig, path):
     if path is not None:
         fig.savefig(path, dpi=110, bbox_inches="tight")

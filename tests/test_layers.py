@@ -59,6 +59,7 @@ LAYERS = {
     "sarjax.export": 7,
     # 8: applications.
     "sarjax.demo": 8,
+    "sarjax.campaign": 8,
     "sarjax.cli": 8,
 }
 # The package's own __init__ (the public namespace) sits above everything: no module

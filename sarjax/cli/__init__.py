@@ -1,4 +1,4 @@
-"""The ``sarjax`` command: demo, simulate, focus, metrics, fit, check, export, plot.
+"""The ``sarjax`` command: demo, simulate, focus, metrics, fit, check, export, plot, campaign.
 
 Every command takes ``--help``. Files are NetCDF-4 (:mod:`sarjax.io`): ``simulate`` writes
 raw data with every parameter of the run, ``focus`` an image carrying them on, so each
@@ -33,6 +33,10 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv=None) -> int:
     """Entry point of the ``sarjax`` command; returns the exit status."""
+    if os.environ.get("SARJAX_COORDINATOR"):  # one of the processes of a launched run
+        from .. import distributed
+
+        distributed.initialize()
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning  # one line each, as errors are

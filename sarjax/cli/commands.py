@@ -9,13 +9,13 @@ from pathlib import Path
 
 import click
 
-from .config import ACQUISITION_KEYS, PRESETS, Fail, load_config
+from .config import ACQUISITION_KEYS, PRESETS, Fail, campaign_config, load_config
 
 _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
 @click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
-             "metrics, fit, check, config, export, plot.\n\n"
+             "metrics, fit, check, config, export, plot, campaign.\n\n"
              "Run 'sarjax COMMAND --help' for the options of a command.")
 @click.version_option(package_name="sarjax", prog_name="sarjax",
                       message="%(prog)s %(version)s")
@@ -573,3 +573,72 @@ def _zoom_window(zoom, run):
     if not (x0 < x1 and r0 < r1):
         return None  # the targets lie outside the image: show all of it
     return (x0, x1), (r0, r1)
+
+
+# ---- campaign ---------------------------------------------------------------------------
+
+
+class _UnitProgress:
+    """``progress(done, total)`` of :func:`sarjax.campaign.run`: a bar with its ETA on a
+    terminal, log lines with the time left otherwise."""
+
+    def __init__(self):
+        self.bar, self.start, self.first = None, time.perf_counter(), None
+
+    def __call__(self, done, total):
+        if self.first is None:  # units finished before this run (resumed)
+            self.first = done
+            if sys.stderr.isatty():
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=total, initial=done, desc="campaign", unit="unit",
+                                file=sys.stderr, leave=False)
+            return
+        if self.bar is not None:
+            self.bar.update(done - self.bar.n)
+            return
+        elapsed = time.perf_counter() - self.start
+        ran = done - self.first
+        left = elapsed / ran * (total - done) if ran else float("nan")
+        click.echo(f"sarjax: campaign: unit {done}/{total} done after {elapsed:.1f} s, "
+                   f"about {left:.0f} s left", err=True)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", required=True, type=click.Path(),
+              help="the campaign's Zarr store (a folder); rerunning resumes it")
+@click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
+              help="override a configuration entry (repeatable), e.g. campaign.unit=4")
+@click.option("--png", type=click.Path(dir_okay=False), default=None,
+              help="also plot the validity map (NMSE against deviation rms)")
+def campaign(config, out, overrides, png):
+    """Run (or resume) a validity-map campaign: every method of [campaign] against the
+    exact model over a grid of deviation rms, squint and motion realizations, into a
+    resumable Zarr store; prints the summary table."""
+    from .. import campaign as campaign_
+
+    cfg = load_config(config, overrides)
+    spec = campaign_config(cfg)
+    progress = _UnitProgress()
+    try:
+        ran = campaign_.run(spec, out, progress=progress)
+    finally:
+        progress.close()
+    import jax
+
+    if jax.process_index() != 0:  # one summary, from process 0 of a multi-process run
+        return
+    dataset = campaign_.load(out)
+    click.echo(f"{out}: {spec.num_scenarios} scenarios in {spec.num_units} units "
+               f"({ran} run by this call)")
+    click.echo(campaign_.summary(dataset))
+    if png:
+        from .. import plot
+
+        _check_output(png, True)
+        plot.validity_map(dataset, path=png)

@@ -76,6 +76,14 @@ dtype = "complex128"             # or complex64
 # near_range = 4900.0            # [m]
 # azimuth_center = 0.0           # x' of the window's centre [m]
 # strict = false                 # refuse instead of warning outside a validity budget
+
+[campaign]                       # sarjax campaign CONFIG.toml -o study.zarr only
+# methods = ["fourier_2d", "small_deviation", "moderate_deviation"]  # against time_domain
+# deviation_rms = [0.0, 0.005, 0.02, 0.1]  # grid of Δy, Δz rms [m] ([motion] unused)
+# squint_deg = [0.0]             # grid of squints φ_d [deg]
+# realizations = 1               # motion realizations per grid point [-]
+# max_cycles = 1.0               # highest deviation cycles per footprint [-]
+# unit = 8                       # scenarios per unit of work and Zarr chunk [-]
 """
 
 ACQUISITION_KEYS = ("num_pulses", "num_range", "near_range", "azimuth_center")
@@ -129,7 +137,7 @@ def _apply_override(config, item):
 
 
 def _check_sections(config):
-    known = {"preset", "radar", "scene", "motion", "simulate"}
+    known = {"preset", "radar", "scene", "motion", "simulate", "campaign"}
     unknown = set(config) - known
     if unknown:
         raise Fail(unknown_names("configuration entries", unknown, known))
@@ -223,6 +231,47 @@ def _scene(config):
                          f"scene.reflectivity {amplitude.size}")
     return PointTargets(azimuth=azimuth, range=range_,
                         reflectivity=amplitude * np.exp(1j * phase), height=height)
+
+
+CAMPAIGN_KEYS = ("methods", "deviation_rms", "squint_deg", "realizations", "max_cycles",
+                 "unit")
+
+
+def campaign_config(config: dict):
+    """The :class:`sarjax.campaign.Campaign` of a configuration: its ``preset``,
+    ``[radar]`` and ``[scene]``, and the axes of ``[campaign]``."""
+    from ..campaign import Campaign
+
+    radar = _radar(config)
+    scene = _scene(config)
+    table = dict(config.get("campaign", {}))
+    unknown = {key: value for key, value in table.items() if key not in CAMPAIGN_KEYS}
+    if unknown:
+        raise ValueError(unknown_names("[campaign] entries", unknown, CAMPAIGN_KEYS))
+    options = {}
+    if "methods" in table:
+        methods = table["methods"]
+        if isinstance(methods, str):
+            methods = [methods]
+        if not (isinstance(methods, list) and all(isinstance(m, str) for m in methods)):
+            raise ValueError(f"campaign.methods={methods!r} must be a list of method names")
+        from ..simulators import simulator_class
+
+        for name in methods:
+            simulator_class(name)  # an unknown name is answered with the known ones
+        options["methods"] = tuple(methods)
+    for key in ("deviation_rms", "squint_deg"):
+        if key in table:
+            options[key] = tuple(float(v) for v in numbers(f"campaign.{key}", table[key]))
+    if "realizations" in table:
+        options["realizations"] = number("campaign.realizations", table["realizations"],
+                                         integer=True, positive=True)
+    if "unit" in table:
+        options["unit"] = number("campaign.unit", table["unit"], integer=True, positive=True)
+    if "max_cycles" in table:
+        options["max_cycles"] = number("campaign.max_cycles", table["max_cycles"],
+                                       positive=True)
+    return Campaign(radar, scene, **options)
 
 
 def _motion(config, radar, x):

@@ -1,0 +1,222 @@
+"""Campaigns: a resumable Zarr store, killed and resumed, equals an uninterrupted one.
+
+The campaign runs in a child process that is killed (SIGKILL: no clean-up at all) at
+random moments — after a random number of finished units and a random fraction of a
+unit more, so mid-unit and between files — three times, then rerun to the end. Its
+data variables must equal those of an uninterrupted run bit for bit, and the units
+finished before each kill must not be run again. A store of another campaign, a folder
+that is not a sarjax store, or a damaged one is refused and left as it was.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sarjax as sj
+from sarjax import campaign as cp
+
+TESTS = str(Path(__file__).resolve().parent)
+
+
+def small_campaign(size="ci"):
+    """24 scenarios in 8 units (CI); 200 in 25 (slow tier)."""
+    radar = sj.presets.airborne_xband(num_pulses=64, num_range=64,
+                                      near_range=5140.0 - 32 * 2.99792458)
+    scene = sj.PointTargets(azimuth=[0.0, 2.0], range=[5140.0, 5146.0])
+    if size == "ci":
+        return cp.Campaign(radar, scene, methods=("fourier_2d", "small_deviation"),
+                           deviation_rms=(0.0, 0.005, 0.05), realizations=4, unit=3)
+    return cp.Campaign(radar, scene, methods=("fourier_2d", "small_deviation"),
+                       deviation_rms=(0.0, 0.002, 0.01, 0.05, 0.2),
+                       squint_deg=(0.0, 5.0, 10.0, 20.0), realizations=5, unit=8)
+
+
+CHILD = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, sys.argv[3])
+    from test_campaign import small_campaign
+    from sarjax import campaign
+    campaign.run(small_campaign(sys.argv[2]), sys.argv[1])
+""")
+
+
+def _units_done(path):
+    import zarr
+
+    try:
+        return int(np.sum(zarr.open_array(str(path / "unit_done"), mode="r")[:]))
+    except Exception:  # not created yet
+        return 0
+
+
+def _data(path):
+    with cp.load(path) as ds:
+        return {name: np.asarray(ds[name].values) for name in (*cp.RESULTS, "unit_done")}
+
+
+def _killed_and_resumed(path, size, rng, kills=3):
+    """Run the campaign in children killed ``kills`` times, then to the end; the units
+    flagged done before each kill (which the next run must not repeat)."""
+    total = small_campaign(size).num_units
+    flagged = []
+    for _ in range(kills):
+        before = _units_done(path)
+        target = min(before + int(rng.integers(1, 3)), total - 1)
+        child = subprocess.Popen([sys.executable, "-c", CHILD, str(path), size, TESTS])
+        deadline = time.monotonic() + 300
+        while _units_done(path) < target and child.poll() is None:
+            assert time.monotonic() < deadline, "the campaign made no progress"
+            time.sleep(0.02)
+        time.sleep(float(rng.uniform(0.0, 0.5)))  # into the next unit
+        if child.poll() is None:
+            os.kill(child.pid, signal.SIGKILL)
+        child.wait()
+        flagged.append(_units_done(path))
+    ran = cp.run(small_campaign(size), path)
+    return flagged, ran
+
+
+@pytest.mark.parametrize("size", ["ci", pytest.param("full", marks=pytest.mark.slow)])
+def test_killed_three_times_and_resumed_equals_uninterrupted(tmp_path, size):
+    campaign = small_campaign(size)
+    whole = tmp_path / "whole.zarr"
+    assert cp.run(campaign, whole) == campaign.num_units
+    resumed = tmp_path / "resumed.zarr"
+    flagged, ran = _killed_and_resumed(resumed, size, np.random.default_rng(5))
+    assert ran == campaign.num_units - flagged[-1]  # nothing finished is run again
+    assert flagged == sorted(flagged) and flagged[-1] < campaign.num_units
+    a, b = _data(whole), _data(resumed)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert np.all(a["unit_done"] == 1) and np.all(a["warned"] >= 0)
+    assert not list(resumed.rglob("*.partial"))
+    # a second rerun has nothing left to do
+    assert cp.run(campaign, resumed) == 0
+
+
+def test_results_are_the_measurements(tmp_path):
+    """Spot check: a stored scenario's NMSE and warning are simulate's own."""
+    import warnings
+
+    campaign = small_campaign()
+    path = tmp_path / "s.zarr"
+    cp.run(campaign, path)
+    data, scenarios = _data(path), campaign.scenarios()
+    s = int(np.flatnonzero((scenarios["method"] == "small_deviation")
+                           & (scenarios["deviation_rms"] == 0.005))[1])
+    radar, motion = campaign.radar, cp._motion(campaign, 0.005, int(scenarios["realization"][s]))
+    exact = sj.simulate(radar, campaign.scene, motion, method="time_domain")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fast = sj.simulate(radar, campaign.scene, motion, method="small_deviation")
+    assert data["nmse_db"][s] == sj.metrics.nmse_db(fast, exact)
+    assert data["warned"][s] == int(any(issubclass(w.category, sj.ValidityWarning)
+                                        for w in caught))
+    # the summary has one row per method and rms, all done
+    table = cp.summary(cp.load(path))
+    assert table.count("4/4") == 6, table
+
+
+def test_foreign_damaged_or_other_stores_are_refused(tmp_path):
+    campaign = small_campaign()
+    folder = tmp_path / "photos"
+    folder.mkdir()
+    (folder / "holiday.jpg").write_bytes(b"not zarr")
+    with pytest.raises(ValueError, match="not a readable Zarr store|not a sarjax"):
+        cp.run(campaign, folder)
+    assert [p.name for p in folder.iterdir()] == ["holiday.jpg"]
+    other = tmp_path / "other.zarr"
+    cp.open_store(other, small_campaign())
+    changed = cp.Campaign(campaign.radar, campaign.scene, methods=("fourier_2d",),
+                          deviation_rms=(0.0,), unit=3)
+    with pytest.raises(ValueError, match="another campaign"):
+        cp.run(changed, other)
+    (other / "zarr.json").write_text("{ truncated")
+    with pytest.raises(ValueError, match="not a readable Zarr store"):
+        cp.run(campaign, other)
+    assert (other / "zarr.json").read_text() == "{ truncated"
+    with pytest.raises(ValueError, match="does not exist"):
+        cp.run(campaign, tmp_path / "missing" / "s.zarr")
+    with pytest.raises(ValueError, match="unit=0"):
+        cp.Campaign(campaign.radar, campaign.scene, unit=0)
+    with pytest.raises(ValueError, match="deviation_rms"):
+        cp.Campaign(campaign.radar, campaign.scene, deviation_rms=(-1.0,))
+
+
+def test_command_line_runs_resumes_and_plots(tmp_path, capsys):
+    import sarjax.cli
+    from sarjax.cli import config
+
+    toml = tmp_path / "study.toml"
+    toml.write_text(textwrap.dedent("""
+        preset = "airborne"
+        [radar]
+        num_pulses = 64
+        num_range = 64
+        near_range = 5044.07
+        [scene]
+        azimuth = [0.0]
+        range = [5140.0]
+        [campaign]
+        methods = ["fourier_2d", "small_deviation"]
+        deviation_rms = [0.0, 0.01]
+        unit = 2
+    """))
+    out, png = tmp_path / "study.zarr", tmp_path / "map.png"
+    assert sarjax.cli.main(["campaign", str(toml), "-o", str(out), "--png", str(png)]) == 0
+    first = capsys.readouterr().out
+    assert "4 scenarios in 2 units (2 run by this call)" in first
+    assert "median NMSE [dB]" in first and png.stat().st_size > 0
+    assert sarjax.cli.main(["campaign", str(toml), "-o", str(out)]) == 0
+    assert "(0 run by this call)" in capsys.readouterr().out
+    # another configuration on the same store: refused, one line
+    assert sarjax.cli.main(["campaign", str(toml), "-o", str(out),
+                            "--set", "campaign.unit=1"]) == 2
+    assert "another campaign" in capsys.readouterr().err
+    assert sarjax.cli.main(["campaign", str(toml), "-o", str(out),
+                            "--set", "campaign.uint=1"]) == 2
+    assert "did you mean 'unit'?" in capsys.readouterr().err
+    for key in config.CAMPAIGN_KEYS:
+        assert f"# {key} =" in config.EXAMPLE, key
+
+
+def test_two_processes_share_the_units(tmp_path):
+    """Under the launcher, ``sarjax campaign`` shares the units out over two processes
+    (unit u in process u mod 2; process 0 prints the summary): the store equals a
+    one-process run's."""
+    from sarjax import distributed
+
+    toml = tmp_path / "study.toml"
+    toml.write_text(textwrap.dedent("""
+        preset = "airborne"
+        [radar]
+        num_pulses = 64
+        num_range = 64
+        near_range = 5044.07
+        [scene]
+        azimuth = [0.0]
+        range = [5140.0]
+        [campaign]
+        methods = ["fourier_2d", "small_deviation"]
+        deviation_rms = [0.0, 0.01]
+        unit = 1
+    """))
+    two, one = tmp_path / "two.zarr", tmp_path / "one.zarr"
+    status = distributed.launch(["-m", "sarjax.cli", "campaign", str(toml), "-o", str(two)],
+                                2, timeout=300)
+    assert status == 0
+    import sarjax.cli
+
+    assert sarjax.cli.main(["campaign", str(toml), "-o", str(one)]) == 0
+    a, b = _data(one), _data(two)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
