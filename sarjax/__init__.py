@@ -15,6 +15,7 @@ from . import inverse as inverse  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import presets as presets  # noqa: E402
 from . import processing as processing  # noqa: E402
+from ._compilation_cache import enable_compilation_cache as enable_compilation_cache  # noqa: E402
 from ._data import Acquisition as Acquisition  # noqa: E402
 from ._data import Image as Image  # noqa: E402
 from ._data import RawData as RawData  # noqa: E402

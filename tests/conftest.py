@@ -54,7 +54,7 @@ _MODULE_SECONDS = {
     "test_batch.py": 30, "test_ambiguities.py": 30, "test_readme.py": 28,
     "test_gradients.py": 25, "test_fourier_gradients.py": 23, "test_cli.py": 19,
     "test_sicd.py": 6, "test_distributed.py": 30,
-    "test_campaign.py": 60,
+    "test_campaign.py": 60, "test_compilation_cache.py": 25,
 }
 
 

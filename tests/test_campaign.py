@@ -189,6 +189,7 @@ def test_command_line_runs_resumes_and_plots(tmp_path, capsys):
         assert f"# {key} =" in config.EXAMPLE, key
 
 
+@pytest.mark.slow  # 14 s in CI; the launcher itself is tested in test_distributed.py
 def test_two_processes_share_the_units(tmp_path):
     """Under the launcher, ``sarjax campaign`` shares the units out over two processes
     (unit u in process u mod 2; process 0 prints the summary): the store equals a

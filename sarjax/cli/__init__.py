@@ -38,6 +38,13 @@ def main(argv=None) -> int:
 
         distributed.initialize()
     try:
+        from .._compilation_cache import enable_compilation_cache
+
+        # a later run of the same shapes loads its programs ($SARJAX_CACHE_DIR=off: none)
+        enable_compilation_cache()
+    except ValueError as err:
+        print(f"sarjax: warning: {err}", file=sys.stderr)
+    try:
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning  # one line each, as errors are
             result = cli.main(args=argv, prog_name="sarjax", standalone_mode=False)
