@@ -152,12 +152,10 @@ def test_foreign_damaged_or_other_stores_are_refused(tmp_path):
         cp.Campaign(campaign.radar, campaign.scene, deviation_rms=(-1.0,))
 
 
-def test_command_line_runs_resumes_and_plots(tmp_path, capsys):
-    import sarjax.cli
-    from sarjax.cli import config
-
-    toml = tmp_path / "study.toml"
-    toml.write_text(textwrap.dedent("""
+def _study_toml(folder, unit):
+    """A two-method, two-amplitude study of one target on a 64 × 64 grid."""
+    toml = folder / "study.toml"
+    toml.write_text(textwrap.dedent(f"""
         preset = "airborne"
         [radar]
         num_pulses = 64
@@ -169,8 +167,16 @@ def test_command_line_runs_resumes_and_plots(tmp_path, capsys):
         [campaign]
         methods = ["fourier_2d", "small_deviation"]
         deviation_rms = [0.0, 0.01]
-        unit = 2
+        unit = {unit}
     """))
+    return toml
+
+
+def test_command_line_runs_resumes_and_plots(tmp_path, capsys):
+    import sarjax.cli
+    from sarjax.cli import config
+
+    toml = _study_toml(tmp_path, unit=2)
     out, png = tmp_path / "study.zarr", tmp_path / "map.png"
     assert sarjax.cli.main(["campaign", str(toml), "-o", str(out), "--png", str(png)]) == 0
     first = capsys.readouterr().out
@@ -196,21 +202,7 @@ def test_two_processes_share_the_units(tmp_path):
     one-process run's."""
     from sarjax import distributed
 
-    toml = tmp_path / "study.toml"
-    toml.write_text(textwrap.dedent("""
-        preset = "airborne"
-        [radar]
-        num_pulses = 64
-        num_range = 64
-        near_range = 5044.07
-        [scene]
-        azimuth = [0.0]
-        range = [5140.0]
-        [campaign]
-        methods = ["fourier_2d", "small_deviation"]
-        deviation_rms = [0.0, 0.01]
-        unit = 1
-    """))
+    toml = _study_toml(tmp_path, unit=1)
     two, one = tmp_path / "two.zarr", tmp_path / "one.zarr"
     status = distributed.launch(["-m", "sarjax.cli", "campaign", str(toml), "-o", str(two)],
                                 2, timeout=300)
