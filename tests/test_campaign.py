@@ -33,9 +33,9 @@ def small_campaign(size="ci"):
                                       near_range=5140.0 - 32 * 2.99792458)
     scene = sj.PointTargets(azimuth=[0.0, 2.0], range=[5140.0, 5146.0])
     if size == "ci":
-        return cp.Campaign(radar, scene, methods=("fourier_2d", "small_deviation"),
+        return cp.ValidityMap(radar, scene, methods=("fourier_2d", "small_deviation"),
                            deviation_rms=(0.0, 0.005, 0.05), realizations=4, unit=3)
-    return cp.Campaign(radar, scene, methods=("fourier_2d", "small_deviation"),
+    return cp.ValidityMap(radar, scene, methods=("fourier_2d", "small_deviation"),
                        deviation_rms=(0.0, 0.002, 0.01, 0.05, 0.2),
                        squint_deg=(0.0, 5.0, 10.0, 20.0), realizations=5, unit=8)
 
@@ -60,7 +60,10 @@ def _units_done(path):
 
 def _data(path):
     with cp.load(path) as ds:
-        return {name: np.asarray(ds[name].values) for name in (*cp.RESULTS, "unit_done")}
+        names = [name for name in ds.data_vars if name in (*cp.ValidityMap.results,
+                                                             *cp.FitMonteCarlo.results,
+                                                             "unit_done")]
+        return {name: np.asarray(ds[name].values) for name in names}
 
 
 def _killed_and_resumed(path, size, rng, kills=3):
@@ -136,7 +139,7 @@ def test_foreign_damaged_or_other_stores_are_refused(tmp_path):
     assert [p.name for p in folder.iterdir()] == ["holiday.jpg"]
     other = tmp_path / "other.zarr"
     cp.open_store(other, small_campaign())
-    changed = cp.Campaign(campaign.radar, campaign.scene, methods=("fourier_2d",),
+    changed = cp.ValidityMap(campaign.radar, campaign.scene, methods=("fourier_2d",),
                           deviation_rms=(0.0,), unit=3)
     with pytest.raises(ValueError, match="another campaign"):
         cp.run(changed, other)
@@ -147,9 +150,9 @@ def test_foreign_damaged_or_other_stores_are_refused(tmp_path):
     with pytest.raises(ValueError, match="does not exist"):
         cp.run(campaign, tmp_path / "missing" / "s.zarr")
     with pytest.raises(ValueError, match="unit=0"):
-        cp.Campaign(campaign.radar, campaign.scene, unit=0)
+        cp.ValidityMap(campaign.radar, campaign.scene, unit=0)
     with pytest.raises(ValueError, match="deviation_rms"):
-        cp.Campaign(campaign.radar, campaign.scene, deviation_rms=(-1.0,))
+        cp.ValidityMap(campaign.radar, campaign.scene, deviation_rms=(-1.0,))
 
 
 def _study_toml(folder, unit):
@@ -213,3 +216,55 @@ def test_two_processes_share_the_units(tmp_path):
     a, b = _data(one), _data(two)
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+def _fit_campaign(realizations=2):
+    """Two cold-start fits on the reduced grid of tests/test_inverse.py (400 × 360,
+    L = 2 m, 2.5 µs chirp), 1 cm rms one-cycle deviations and the seed's jitter, 10 dB."""
+    radar = sj.presets.airborne_xband(antenna_length=2.0, chirp_duration=2.5e-6,
+                                      num_pulses=400, num_range=360, near_range=4620.0)
+    scene = sj.PointTargets(azimuth=[0.0, 0.0, 0.0], range=[4840.0, 5140.0, 5440.0])
+    return cp.FitMonteCarlo(radar, scene, deviation_rms=(0.01,), snr_db=(10.0,),
+                            realizations=realizations)
+
+
+def test_fit_campaign_declares_its_grid_and_config():
+    """(No fit runs here: the fits are in the slow tier.) The scenario axis, the store's
+    identity distinct from a validity map's, and the configuration's ``kind``."""
+    from sarjax.cli import config
+
+    fit = cp.FitMonteCarlo(small_campaign().radar, small_campaign().scene,
+                           deviation_rms=(0.01, 0.02), snr_db=(0.0, 10.0), realizations=3)
+    axis = fit.scenarios()
+    assert fit.num_scenarios == 12 == axis["snr_db"].size and fit.num_units == 12
+    np.testing.assert_array_equal(axis["snr_db"][:4], [0.0, 10.0, 0.0, 10.0])
+    np.testing.assert_array_equal(axis["realization"][:4], [0, 0, 1, 1])
+    assert '"fit-monte-carlo' in fit.identity().replace("sarjax.campaign/", '"')
+    assert fit.identity() != small_campaign().identity()
+    base = {"preset": "airborne", "scene": {"azimuth": [0.0], "range": [5140.0]}}
+    made = config.campaign_config({**base, "campaign": {"kind": "fit", "snr_db": [5.0]}})
+    assert isinstance(made, cp.FitMonteCarlo) and made.snr_db == (5.0,)
+    with pytest.raises(ValueError, match="apply to kind"):
+        config.campaign_config({**base, "campaign": {"kind": "fit", "squint_deg": [5.0]}})
+    with pytest.raises(ValueError, match="campaign.kind='fits'"):
+        config.campaign_config({**base, "campaign": {"kind": "fits"}})
+    with pytest.raises(ValueError, match="snr_db"):
+        cp.FitMonteCarlo(fit.radar, fit.scene, snr_db=(float("nan"),))
+
+
+@pytest.mark.slow
+def test_fit_campaign_measures_error_against_the_bound(tmp_path):
+    """Two fits, resumed after a kill in between: the stored errors are those of the
+    fits, and a converged fit's line-of-sight error is within 3 CRB (one noise draw)."""
+    campaign = _fit_campaign()
+    path = tmp_path / "fit.zarr"
+    assert cp.run(campaign, path, process_index=0, process_count=2) == 1  # unit 0 only
+    assert cp.run(campaign, path) == 1  # the rest
+    data = _data(path)
+    assert np.all(data["unit_done"] == 1)
+    for s in range(2):
+        if data["converged"][s]:
+            assert data["error_los"][s] <= 3 * data["crb_los"][s], data
+            assert 0.5 < data["std_los"][s] / data["crb_los"][s] < 2.0, data
+    table = cp.summary(cp.load(path))
+    assert "error/CRB" in table and "2/2" in table, table

@@ -617,9 +617,10 @@ class _UnitProgress:
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
               help="also plot the validity map (NMSE against deviation rms)")
 def campaign(config, out, overrides, png):
-    """Run (or resume) a validity-map campaign: every method of [campaign] against the
-    exact model over a grid of deviation rms, squint and motion realizations, into a
-    resumable Zarr store; prints the summary table."""
+    """Run (or resume) a campaign into a resumable Zarr store and print its summary: a
+    validity map (each method of [campaign] against the exact model over deviation rms,
+    squint and realizations) or, with kind = "fit", a Monte Carlo of motion fits against
+    the Cramér–Rao bound over deviation rms, SNR and realizations."""
     from .. import campaign as campaign_
 
     cfg = load_config(config, overrides)
@@ -640,5 +641,7 @@ def campaign(config, out, overrides, png):
     if png:
         from .. import plot
 
+        if "nmse_db" not in dataset:
+            raise Fail("--png draws a validity map; a fit campaign's figure is not drawn")
         _check_output(png, True)
         plot.validity_map(dataset, path=png)

@@ -78,12 +78,14 @@ dtype = "complex128"             # or complex64
 # strict = false                 # refuse instead of warning outside a validity budget
 
 [campaign]                       # sarjax campaign CONFIG.toml -o study.zarr only
-# methods = ["fourier_2d", "small_deviation", "moderate_deviation"]  # against time_domain
+# kind = "validity"              # validity (methods vs the exact model) | fit (fit vs CRB)
+# methods = ["fourier_2d", "small_deviation", "moderate_deviation"]  # validity
 # deviation_rms = [0.0, 0.005, 0.02, 0.1]  # grid of Δy, Δz rms [m] ([motion] unused)
-# squint_deg = [0.0]             # grid of squints φ_d [deg]
-# realizations = 1               # motion realizations per grid point [-]
+# squint_deg = [0.0]             # validity: grid of squints φ_d [deg]
+# snr_db = [0.0, 10.0]           # fit: grid of raw SNR [dB]
+# realizations = 1               # draws per grid point [-] (fit: 10)
 # max_cycles = 1.0               # highest deviation cycles per footprint [-]
-# unit = 8                       # scenarios per unit of work and Zarr chunk [-]
+# unit = 8                       # scenarios per unit of work and Zarr chunk [-] (fit: 1)
 """
 
 ACQUISITION_KEYS = ("num_pulses", "num_range", "near_range", "azimuth_center")
@@ -233,14 +235,16 @@ def _scene(config):
                         reflectivity=amplitude * np.exp(1j * phase), height=height)
 
 
-CAMPAIGN_KEYS = ("methods", "deviation_rms", "squint_deg", "realizations", "max_cycles",
-                 "unit")
+CAMPAIGN_KEYS = ("kind", "methods", "deviation_rms", "squint_deg", "snr_db",
+                 "realizations", "max_cycles", "unit")
+CAMPAIGN_KINDS = {"validity": ("methods", "squint_deg"), "fit": ("snr_db",)}
 
 
 def campaign_config(config: dict):
-    """The :class:`sarjax.campaign.Campaign` of a configuration: its ``preset``,
+    """The campaign of a configuration (:class:`sarjax.campaign.ValidityMap` or, with
+    ``kind = "fit"``, :class:`sarjax.campaign.FitMonteCarlo`): its ``preset``,
     ``[radar]`` and ``[scene]``, and the axes of ``[campaign]``."""
-    from ..campaign import Campaign
+    from ..campaign import FitMonteCarlo, ValidityMap
 
     radar = _radar(config)
     scene = _scene(config)
@@ -248,6 +252,13 @@ def campaign_config(config: dict):
     unknown = {key: value for key, value in table.items() if key not in CAMPAIGN_KEYS}
     if unknown:
         raise ValueError(unknown_names("[campaign] entries", unknown, CAMPAIGN_KEYS))
+    kind = table.pop("kind", "validity")
+    if kind not in CAMPAIGN_KINDS:
+        raise ValueError(f"campaign.kind={kind!r}; choose one of {sorted(CAMPAIGN_KINDS)}")
+    for other, keys in CAMPAIGN_KINDS.items():
+        foreign = [key for key in keys if key in table]
+        if other != kind and foreign:
+            raise ValueError(f"[campaign] {foreign} apply to kind = {other!r}, not {kind!r}")
     options = {}
     if "methods" in table:
         methods = table["methods"]
@@ -260,7 +271,7 @@ def campaign_config(config: dict):
         for name in methods:
             simulator_class(name)  # an unknown name is answered with the known ones
         options["methods"] = tuple(methods)
-    for key in ("deviation_rms", "squint_deg"):
+    for key in ("deviation_rms", "squint_deg", "snr_db"):
         if key in table:
             options[key] = tuple(float(v) for v in numbers(f"campaign.{key}", table[key]))
     if "realizations" in table:
@@ -271,7 +282,7 @@ def campaign_config(config: dict):
     if "max_cycles" in table:
         options["max_cycles"] = number("campaign.max_cycles", table["max_cycles"],
                                        positive=True)
-    return Campaign(radar, scene, **options)
+    return (ValidityMap if kind == "validity" else FitMonteCarlo)(radar, scene, **options)
 
 
 def _motion(config, radar, x):
