@@ -45,10 +45,11 @@ from typing import ClassVar
 
 import numpy as np
 
+from ._data import Acquisition
 from ._simulate import simulate
 from ._validate import SwathWarning, ValidityWarning
 from .metrics import nmse_db
-from .motion import Motion, smooth_deviation
+from .motion import Motion, seed_pointing_jitter, smooth_deviation
 from .radar import Radar, radar_attributes
 from .scene import PointTargets
 
@@ -121,7 +122,7 @@ class Campaign:
         raise NotImplementedError
 
 
-_COLUMN = {"methods": "method", "squint_deg": "squint_deg"}
+_COLUMN = {"methods": "method"}  # the scenario column of a grid axis, where it differs
 
 
 @dataclasses.dataclass(frozen=True)
@@ -280,14 +281,11 @@ def _create(path: Path, campaign: Campaign):
                                   dtype="i1", fill_value=0, dimension_names=["unit"])
         done.attrs["long_name"] = f"1: unit finished (scenarios u·{unit} … (u+1)·{unit} − 1)"
         os.rename(tmp, path)
-    except FileExistsError:  # another process created it meanwhile: fine if it matches
-        shutil.rmtree(tmp, ignore_errors=True)
-    except OSError as err:
-        shutil.rmtree(tmp, ignore_errors=True)
+    except OSError as err:  # another process may have created it meanwhile: then reopen
         if not path.exists():
             raise ValueError(f"cannot create the campaign store {path}: {err}") from None
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(tmp, ignore_errors=True)  # gone after the rename, or a failed try
     return _open_existing(path, campaign)
 
 
@@ -311,19 +309,27 @@ def _remove_partial_files(path: Path):
 # ---------------------------------------------------------------------------- running
 
 
+def _pulse_azimuths(radar):
+    """(azimuth,) x' of the radar's pulses, centred on 0 [m]."""
+    acquisition = Acquisition(num_pulses=radar.num_pulses, num_range=radar.num_range,
+                              near_range=radar.near_range, azimuth_center=0.0)
+    return np.asarray(acquisition.pulse_azimuths(radar))
+
+
+def _deviations(campaign, x, rms, keys):
+    """(Δy, Δz): smooth deviations of ``rms`` [m], one random key (or generator) each."""
+    aperture = float(campaign.radar.footprint(campaign.radar.reference_range))
+    return tuple(smooth_deviation(x, key=key, rms=rms, max_cycles=campaign.max_cycles,
+                                  aperture=aperture) for key in keys)
+
+
 def _motion(campaign: ValidityMap, rms: float, realization: int):
     if rms == 0.0:
         return None
-    radar = campaign.radar
-    n = radar.num_pulses
-    x = (np.arange(n) - (n - 1) / 2) * float(radar.azimuth_spacing)
-    aperture = float(radar.footprint(radar.reference_range))
     keys = np.random.SeedSequence([2017, realization]).generate_state(2)
-    return Motion(
-        horizontal=smooth_deviation(x, key=int(keys[0]), rms=rms,
-                                    max_cycles=campaign.max_cycles, aperture=aperture),
-        vertical=smooth_deviation(x, key=int(keys[1]), rms=rms,
-                                  max_cycles=campaign.max_cycles, aperture=aperture))
+    dy, dz = _deviations(campaign, _pulse_azimuths(campaign.radar), rms,
+                         [int(k) for k in keys])
+    return Motion(horizontal=dy, vertical=dz)
 
 
 def _local_devices():
@@ -344,10 +350,8 @@ class _ValidityRunner:
         self._exact = None
 
     def __call__(self, row):
-        return self.run(str(row["method"]), float(row["deviation_rms"]),
-                        float(row["squint_deg"]), int(row["realization"]))
-
-    def run(self, method: str, rms: float, squint_deg: float, realization: int):
+        method, rms = str(row["method"]), float(row["deviation_rms"])
+        squint_deg, realization = float(row["squint_deg"]), int(row["realization"])
         local = _local_devices()
         campaign = self.campaign
         radar = campaign.radar.replace(squint=np.deg2rad(squint_deg))
@@ -381,26 +385,20 @@ class _FitRunner:
 
     def __call__(self, row):
         from .inverse import align, crb, fit_motion
-        from .motion import sinusoidal_pointing
 
         campaign, radar = self.campaign, self.campaign.radar
         rms, snr_db = float(row["deviation_rms"]), float(row["snr_db"])
         # the draw depends on the scenario's values only (not on its unit or process)
         rng = np.random.default_rng(np.random.SeedSequence(
             [2017, int(row["realization"]), int(round(rms * 1e9)), int(round(snr_db * 1e6))]))
-        n = radar.num_pulses
-        x = (np.arange(n) - (n - 1) / 2) * float(radar.azimuth_spacing)
-        aperture = float(radar.footprint(radar.reference_range))
+        x = _pulse_azimuths(radar)
+        phase = float(rng.uniform(-np.pi, np.pi))
+        # (amplitude, period, phase) of seed_pointing_jitter, as crb takes them
         jitter = (float(radar.wavelength / radar.antenna_length) / 20,
-                  float(radar.integration_time()) / 10, float(rng.uniform(-np.pi, np.pi)))
-        truth = Motion(
-            horizontal=smooth_deviation(x, key=rng, rms=rms, max_cycles=campaign.max_cycles,
-                                        aperture=aperture),
-            vertical=smooth_deviation(x, key=rng, rms=rms, max_cycles=campaign.max_cycles,
-                                      aperture=aperture),
-            pointing=np.asarray(sinusoidal_pointing(
-                x, amplitude=jitter[0], period=jitter[1], velocity=float(radar.velocity),
-                phase=jitter[2])))
+                  float(radar.integration_time()) / 10, phase)
+        dy, dz = _deviations(campaign, x, rms, [rng, rng])
+        truth = Motion(horizontal=dy, vertical=dz,
+                       pointing=np.asarray(seed_pointing_jitter(radar, x, phase=phase)))
         clean = simulate(radar, campaign.scene, truth, method="time_domain",
                          **_local_devices())
         data = np.asarray(clean.data)
