@@ -1,8 +1,8 @@
 """Campaigns: a resumable Zarr store, killed and resumed, equals an uninterrupted one.
 
-The campaign runs in a child process that is killed (SIGKILL: no clean-up at all) at
-random moments — after a random number of finished units and a random fraction of a
-unit more, so mid-unit and between files — three times, then rerun to the end. Its
+The campaign runs in a child process that kills itself (SIGKILL: no clean-up at all) at
+a drawn point — inside a drawn unit, before one of its scenarios or between two of its
+result files, its flag unwritten — three times, then it is rerun to the end. Its
 data variables must equal those of an uninterrupted run bit for bit, and the units
 finished before each kill must not be run again. A store of another campaign, a folder
 that is not a sarjax store, or a damaged one is refused and left as it was.
@@ -10,12 +10,10 @@ that is not a sarjax store, or a damaged one is refused and left as it was.
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -41,11 +39,42 @@ def small_campaign(size="ci"):
 
 
 CHILD = textwrap.dedent("""
-    import sys
+    import os, signal, sys
     sys.path.insert(0, sys.argv[3])
+    import zarr
     from test_campaign import small_campaign
     from sarjax import campaign
-    campaign.run(small_campaign(sys.argv[2]), sys.argv[1])
+
+    # SIGKILL this process inside unit ``cut`` (0-based) at ``point``: before its
+    # scenario ``point`` (point < unit), or after its ``point − unit + 1``-th result file
+    # (between two files; its flag unwritten)
+    path, size, cut, point = sys.argv[1], sys.argv[2], int(sys.argv[4]), int(sys.argv[5])
+    spec = small_campaign(size)
+    done = int(zarr.open_array(path + "/unit_done", mode="r")[:].sum())
+    count = dict(scenarios=done * spec.unit, writes=0)
+    die = lambda: os.kill(os.getpid(), signal.SIGKILL)
+
+    runner = spec.runner()
+
+    def counting_runner(row):
+        if count["scenarios"] == cut * spec.unit + point:
+            die()
+        count["scenarios"] += 1
+        return runner(row)
+
+    object.__setattr__(spec, "runner", lambda: counting_runner)
+    setitem = zarr.Array.__setitem__
+
+    def counting_setitem(array, key, value):
+        setitem(array, key, value)
+        in_cut = count["scenarios"] == min((cut + 1) * spec.unit, spec.num_scenarios)
+        if in_cut and array.basename in spec.results:
+            count["writes"] += 1
+            if point >= spec.unit and count["writes"] == point - spec.unit + 1:
+                die()
+
+    zarr.Array.__setitem__ = counting_setitem
+    campaign.run(spec, path)
 """)
 
 
@@ -67,23 +96,21 @@ def _data(path):
 
 
 def _killed_and_resumed(path, size, rng, kills=3):
-    """Run the campaign in children killed ``kills`` times, then to the end; the units
-    flagged done before each kill (which the next run must not repeat)."""
-    total = small_campaign(size).num_units
+    """Run the campaign in children killed ``kills`` times (each by itself at a drawn
+    point, see CHILD: mid-unit or between two result files), then to the end; the units
+    flagged done after each kill (which the next run must not repeat)."""
+    campaign = small_campaign(size)
+    cp.open_store(path, campaign)
     flagged = []
     for _ in range(kills):
         before = _units_done(path)
-        target = min(before + int(rng.integers(1, 3)), total - 1)
-        child = subprocess.Popen([sys.executable, "-c", CHILD, str(path), size, TESTS])
-        deadline = time.monotonic() + 300
-        while _units_done(path) < target and child.poll() is None:
-            assert time.monotonic() < deadline, "the campaign made no progress"
-            time.sleep(0.02)
-        time.sleep(float(rng.uniform(0.0, 0.5)))  # into the next unit
-        if child.poll() is None:
-            os.kill(child.pid, signal.SIGKILL)
-        child.wait()
+        cut = min(before + int(rng.integers(0, 2)), campaign.num_units - 1)
+        point = int(rng.integers(0, campaign.unit + len(campaign.results)))
+        child = subprocess.run([sys.executable, "-c", CHILD, str(path), size, TESTS,
+                                str(cut), str(point)], timeout=300)
+        assert child.returncode == -signal.SIGKILL, child.returncode
         flagged.append(_units_done(path))
+        assert flagged[-1] == cut  # the units before the cut, not the cut one
     ran = cp.run(small_campaign(size), path)
     return flagged, ran
 
