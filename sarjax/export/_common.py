@@ -214,14 +214,13 @@ def check_grid(radar, raw):
                              f"radar's {step!r} m")
 
 
-def _centre_of_dwell(radar, y, slant, t_mid, per_metre):
-    """COD time polynomial in IAC (x, y): ``t_mid + x·per_metre`` on the reference range;
-    squinted, the beam centre crosses a point at closest-approach range r when the pulse
-    is r tan φ_d behind it, ``−(r − r₀) tan φ_d / v`` later than at r₀ (a cubic in y)."""
-    squint = float(radar.squint)
-    if squint == 0.0:
+def _centre_of_dwell(y, late, t_mid, per_metre):
+    """COD time polynomial in IAC (x, y): ``t_mid + x·per_metre`` on the reference range,
+    plus ``late`` (33,) [s] at the IAC ``y`` (33,) [m], fitted by a cubic in y: squinted,
+    the beam centre crosses a point at closest-approach range r when the pulse is
+    r tan φ_d behind it, ``−(r − r₀) tan φ_d / v`` later than at r₀."""
+    if not np.any(late):  # broadside
         return np.array([[t_mid], [per_metre]])
-    late = -(slant - float(radar.reference_range)) * np.tan(squint) / float(radar.velocity)
     poly = np.zeros((2, 4))
     poly[0] = np.polynomial.polynomial.polyfit(y, late, 3)
     poly[0, 0] += t_mid
@@ -269,8 +268,8 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
         dwell_poly = np.array([0.5 * track_time])
         dwell_max = 0.5 * track_time
     # squinted, the centre of dwell moves by −(r − r₀) tan φ_d / v across the range window
-    cod_shift = float(np.max(np.abs(slant - float(radar.reference_range)))) * abs(
-        np.tan(squint))
+    late = -(slant - float(radar.reference_range)) * np.tan(squint) / velocity
+    cod_shift = velocity * float(np.max(np.abs(late)))
     half_x = velocity * (0.5 * track_time - 0.5 * dwell_max - 2.0 / float(radar.prf)) - (
         cod_shift)
     if half_x <= 0.0:
@@ -300,7 +299,7 @@ def scene_area(radar, raw, geo: Collection, reference: GeoReference,
         num_samples=max(int(round((y2 - y1) / sample_spacing)), 1),
         iarp_ecf=geo.frame.origin, iarp_llh=wgs84.cartesian_to_geodetic(geo.frame.origin),
         u_iax=np.cross(u_iay, geo.frame.up), u_iay=u_iay, llh_corners=llh_corners,
-        cod_poly=_centre_of_dwell(radar, y_fit, slant, t_mid, sign / velocity),
+        cod_poly=_centre_of_dwell(y_fit, late, t_mid, sign / velocity),
         dwell_poly_2d=np.asarray(dwell_poly)[None, :],
         polygon=np.array([[x1, y1], [x1, y2], [x2, y2], [x2, y1]]),
     )
