@@ -44,14 +44,20 @@ def memory_plan(simulator, plan, radar, scene, motion_bytes, acquisition, dtype,
     :class:`~sarjax._memory.MemoryLimitError` when even the smallest chunks exceed it.
 
     The workspace of one realization is the simulator's own declaration
-    (``simulator.memory(plan, ...)``), on the block of pulses one device runs.
+    (``simulator.memory(plan, ...)``), on the block of pulses one device runs (a
+    pulse-local simulator) or with its columns split over the devices of one scene
+    (``shards=``, a ``splits_columns`` simulator).
     """
     limit = _memory.memory_limit(memory_limit, devices)
+    kind = type(simulator)
     n_batch, n_pulse = _sharding.shards(len(devices), batch_size, acquisition.num_pulses,
-                                        type(simulator).pulse_local)
+                                        kind.pulse_local or kind.splits_columns)
     used = n_batch * n_pulse
     block_pulses = -(-acquisition.num_pulses // n_pulse)
     block = dataclasses.replace(acquisition, num_pulses=block_pulses)
+    # a column split synthesises every pulse on each device, 1/n_pulse of the columns
+    by_columns = n_pulse > 1 and not kind.pulse_local
+    split = dict(shards=n_pulse) if by_columns else {}
     block_batch = None if batch_size is None else -(-batch_size // n_batch)
     item = jnp.dtype(dtype).itemsize
     output = ((block_batch or 1) * n_batch * block_pulses * n_pulse
@@ -60,7 +66,8 @@ def memory_plan(simulator, plan, radar, scene, motion_bytes, acquisition, dtype,
 
     def estimate(sim, batch_chunk):
         together = 1 if block_batch is None else min(batch_chunk or block_batch, block_batch)
-        workspace = sim.memory(plan, radar, scene, block, dtype)
+        workspace = (sim.memory(plan, radar, scene, acquisition, dtype, **split)
+                     if by_columns else sim.memory(plan, radar, scene, block, dtype))
         return _memory.Estimate(int(output), int(inputs), int(used * together * workspace))
 
     def planned(sim, batch_chunk, est):

@@ -1,5 +1,7 @@
-"""Devices and the sharded run: realizations of a batch across devices, and blocks of
-pulses across the devices left over for the pulse-local (exact) simulators."""
+"""Devices and the sharded run: realizations of a batch across devices, and one scene
+across the devices left over: blocks of pulses for the pulse-local (exact) simulators,
+range-wavenumber columns for the Fourier-domain ones (each device left with a block of
+the pulses by one all-to-all, ``_fourier_engine.split_columns``)."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
 from ._data import Acquisition
+from .simulators import _fourier_engine
 
 
 def realizations(simulator, plan, radar, scene, motion, acquisition, dtype, batch_size,
@@ -29,11 +32,14 @@ def realizations(simulator, plan, radar, scene, motion, acquisition, dtype, batc
 
 def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
     """The call split over a (batch, pulse) device mesh with ``shard_map``: realizations
-    over ``batch``, blocks of pulses (pulse-local simulators) over ``pulse``. Pulses and
-    realizations are padded (edge values) to whole blocks and cut off afterwards.
+    over ``batch``; over ``pulse``, blocks of pulses (pulse-local simulators: each device
+    simulates its block as a shorter acquisition) or the range-wavenumber columns
+    (``splits_columns`` simulators: each device synthesises its columns on every pulse
+    and an all-to-all leaves it its block of pulses). Pulses and realizations are padded
+    (edge values) to whole blocks and cut off afterwards.
 
-    ``plan`` is the simulator's plan for one block of pulses; ``call`` the call plan
-    (``_simulate.CallPlan``)."""
+    ``plan`` is the simulator's plan for the pulses one device simulates; ``call`` the
+    call plan (``_simulate.CallPlan``)."""
     n_batch, n_pulse = call.batch_shards, call.pulse_shards
     mesh = Mesh(np.asarray(call.devices, dtype=object).reshape(n_batch, n_pulse),
                 ("batch", "pulse"))
@@ -41,10 +47,12 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
     block_pulses = -(-num_pulses // n_pulse)
     batched = call.batch_size is not None
     block_batch = -(-call.batch_size // n_batch) if batched else None
+    by_columns = n_pulse > 1 and not type(simulator).pulse_local
 
     def pad(values):
         widths = [(0, 0)] * values.ndim
-        widths[-1] = (0, block_pulses * n_pulse - num_pulses)
+        if not by_columns:
+            widths[-1] = (0, block_pulses * n_pulse - num_pulses)
         if batched:
             widths[0] = (0, block_batch * n_batch - call.batch_size)
         return jnp.pad(values, widths, mode="edge")
@@ -55,14 +63,19 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
     centres = acquisition.azimuth_center + offsets * radar.azimuth_spacing
 
     def local(motion_block, centre):
+        if by_columns:  # every pulse here; the columns split inside the kernel
+            with _fourier_engine.columns_across("pulse", n_pulse):
+                return realizations(simulator, plan, radar, scene, motion_block,
+                                    acquisition, dtype, block_batch, call.batch_chunk)
         block = Acquisition(num_pulses=block_pulses, num_range=acquisition.num_range,
                             near_range=acquisition.near_range, azimuth_center=centre[0])
         return realizations(simulator, plan, radar, scene, motion_block, block, dtype,
                             block_batch, call.batch_chunk)
 
     spec = PartitionSpec("batch", "pulse") if batched else PartitionSpec("pulse")
+    motion_spec = (PartitionSpec("batch") if batched else PartitionSpec()) if by_columns else spec
     # check_vma=False: the simulators' loops start from unvarying carries (zeros)
-    data = jax.shard_map(local, mesh=mesh, in_specs=(spec, PartitionSpec("pulse")),
+    data = jax.shard_map(local, mesh=mesh, in_specs=(motion_spec, PartitionSpec("pulse")),
                          out_specs=spec, check_vma=False)(motion, centres)
     return data[: call.batch_size, :num_pulses] if batched else data[:num_pulses]
 
@@ -103,12 +116,13 @@ def resolve_devices(devices) -> tuple:
     return devices
 
 
-def shards(num_devices, batch_size, num_pulses, pulse_local):
-    """(batch shards, pulse shards): realizations first, then pulse blocks (pulse-local
-    simulators) on the devices left over."""
+def shards(num_devices, batch_size, num_pulses, splits):
+    """(batch shards, pulse shards): realizations first, then the scene (pulse blocks or
+    range columns, for simulators that split one scene: ``splits``) on the devices left
+    over."""
     n_batch = 1
     if batch_size is not None:
         per_device = -(-batch_size // min(num_devices, batch_size))
         n_batch = -(-batch_size // per_device)
-    n_pulse = min(num_devices // n_batch, num_pulses) if pulse_local else 1
+    n_pulse = min(num_devices // n_batch, num_pulses) if splits else 1
     return n_batch, max(n_pulse, 1)

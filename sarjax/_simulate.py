@@ -185,11 +185,15 @@ def simulate(
         devices: the JAX devices to run on: None (default: all devices of the default
             backend), a count n (the first n) or a sequence of ``jax.Device``; 1 runs on
             one device. With several, the call is split with ``shard_map`` over a
-            (batch, pulse) mesh: realizations of a batch across devices, and for the
-            pulse-local exact models (``time_domain``, ``time_domain_nufft``) blocks of
-            pulses across the devices left over. The Fourier-domain methods transform
-            along the whole aperture, so only their batch axis is split (an unbatched
-            call runs on one device). Results equal the one-device results to rounding.
+            (batch, pulse) mesh: realizations of a batch across devices, then one scene
+            across the devices left over: for the exact models (``time_domain``,
+            ``time_domain_nufft``) blocks of pulses; for the Fourier-domain methods
+            (``fourier_2d``, ``small_deviation``, ``moderate_deviation``,
+            ``high_speed``) the range-wavenumber columns between the azimuth and range
+            transforms, each device then left with a block of the pulses by one
+            all-to-all (so a scene larger than one device's memory runs on several;
+            ``chirp_scaling`` is not split). The output is sharded over the devices by
+            pulse. Results equal the one-device results to rounding.
         memory_limit: bound on the call's estimated peak memory, bytes or a string such as
             ``"2GiB"`` (default: ``$SARJAX_MEMORY_LIMIT``, else half the memory available
             now; see :mod:`sarjax._memory`). Over it the call runs fewer realizations at

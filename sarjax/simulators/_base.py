@@ -63,6 +63,10 @@ class AbstractSimulator(eqx.Module):
         exact: it evaluates the exact model (no approximation budgets).
         pulse_local: its pulses are independent (a block of pulses can be simulated on
             its own, so pulses can be split across devices).
+        splits_columns: a Fourier-domain method whose range-wavenumber columns can be
+            split across devices (its column loops go through
+            ``_fourier_engine.split_columns``): one scene over several devices, each
+            left with a block of the pulses.
         in_auto: ``method="auto"`` may choose it (its approximation budgets are measured
             against the exact model).
         accepts_motion: False for a straight-track model that refuses any motion (rather
@@ -78,6 +82,7 @@ class AbstractSimulator(eqx.Module):
     supports_moving_targets: ClassVar[bool] = False
     exact: ClassVar[bool] = False
     pulse_local: ClassVar[bool] = False
+    splits_columns: ClassVar[bool] = False
     in_auto: ClassVar[bool] = False
     accepts_motion: ClassVar[bool] = True
     compile_time: ClassVar[float] = 0.0

@@ -116,6 +116,7 @@ class AbstractFourierSimulator(AbstractSimulator):
     track: ClassVar = StraightTrack()
     supports_squint: ClassVar[bool] = True
     in_auto: ClassVar[bool] = True
+    splits_columns: ClassVar[bool] = True
     compile_time: ClassVar[float] = 5.0
 
     def __init_subclass__(cls, **kwargs):
@@ -176,12 +177,16 @@ class AbstractFourierSimulator(AbstractSimulator):
                             float(acquisition.azimuth_center))
         return self.track.approximation_budgets(self, radar, lobe)
 
-    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+    def memory(self, plan, radar, scene, acquisition, dtype, shards=1) -> int:
+        """Workspace [bytes] of one realization; with its columns split over ``shards``
+        devices, of one device (the column work and the pulses' spectra divide, the
+        scene's range-line tables do not)."""
         _, n_r, n_x, _ = plan.sizes(acquisition, self.column_block)
         grids, lines, per_range, per_azimuth = self.track.workspace_factors
         n = acquisition.num_pulses
-        return int(_C128 * (grids * n_x * n_r + lines * engine.range_line_count(scene) * n_x
-                            + per_range * n * n_r + per_azimuth * n * n_x))
+        return int(_C128 * ((grids * n_x * n_r + per_range * n * n_r) / shards
+                            + lines * engine.range_line_count(scene) * n_x
+                            + per_azimuth * n * n_x))
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
         _, n_r, n_x, _ = plan.sizes(acquisition, self.column_block)

@@ -21,8 +21,11 @@ simulators (``_fourier``, ``_chirp_scaling``, ``_high_speed``) compose them.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import functools
 import math
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -230,10 +233,68 @@ def synthesize_grid(dtft, line_ranges, kappa, taps=8):
     return sinc_interpolate_rows(dtft, position, taps=taps), line_ranges[centre]
 
 
+# --------------------------------------------------------------------------------------
+# range columns split across devices
+# --------------------------------------------------------------------------------------
+
+
+class ColumnSplit(NamedTuple):
+    """Range-wavenumber columns split over the mesh axis ``axis`` of ``shards`` devices
+    (inside ``shard_map``): each device synthesises its contiguous share of the columns
+    on every pulse; one all-to-all then leaves it every column of its share of the
+    pulses, ready for the range transform."""
+
+    axis: str
+    shards: int
+
+
+_COLUMN_SPLIT: contextvars.ContextVar = contextvars.ContextVar("column_split", default=None)
+
+
+@contextlib.contextmanager
+def columns_across(axis: str, shards: int):
+    """Trace the simulators' column loops (:func:`split_columns`) split over the mesh axis
+    ``axis`` (``shards`` devices); used by ``_sharding.sharded`` around the kernel."""
+    token = _COLUMN_SPLIT.set(ColumnSplit(axis, int(shards)))
+    try:
+        yield
+    finally:
+        _COLUMN_SPLIT.reset(token)
+
+
+def split_columns(compute, eta, num_pulses):
+    """``compute(eta)``, (n_c, num_pulses) spectra of the columns ``eta`` (n_c,) on the
+    pulses, split across devices when traced inside :func:`columns_across`.
+
+    In a split over D devices the columns (padded with the last η to D·k) are cut into D
+    contiguous shares of k; device d computes ``compute`` of its share, (k, num_pulses),
+    and one ``all_to_all`` (the transpose as an explicit collective) gives it every
+    column of its block of pulses: (n_c, ceil(num_pulses/D)), block d of the pulses
+    (the last one padded past ``num_pulses``).
+    Per device, the column work and the result are 1/D of the whole; the scene's tables
+    are each device's own.
+    """
+    split = _COLUMN_SPLIT.get()
+    if split is None or split.shards == 1:
+        return compute(eta)
+    n_c, shards = eta.shape[0], split.shards
+    share = -(-n_c // shards)
+    if share * shards > n_c:
+        eta = jnp.concatenate([eta, jnp.broadcast_to(eta[-1], (share * shards - n_c,))])
+    mine = jax.lax.dynamic_slice_in_dim(eta, jax.lax.axis_index(split.axis) * share, share)
+    local = compute(mine)  # (share, num_pulses)
+    block = -(-num_pulses // shards)
+    local = jnp.pad(local, ((0, 0), (0, block * shards - num_pulses)))
+    # chunk p of the pulses to device p; device d's rows arrive in column order
+    gathered = jax.lax.all_to_all(local, split.axis, split_axis=1, concat_axis=0,
+                                  tiled=True)
+    return gathered[:n_c]
+
+
 def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *, pad,
                       num_pulses, block, loops=2):
     """Range synthesis, azimuth inverse transform and per-pulse assembly, a block of range
-    columns at a time.
+    columns at a time (split across devices by :func:`split_columns`).
 
     For columns ``η`` (of ``eta``):
     ``Σ_terms s(x')ⁿ IFFT_ξ[A_i(ξ, η) w(ξ)](x') · e^{−j(η + k₀) δr(x')}`` on the acquired
@@ -254,8 +315,18 @@ def columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, *,
         pad: azimuth padding (pulses before the first acquired pulse).
 
     Returns:
-        (n_c, num_pulses) in (η, x') layout.
+        (n_c, num_pulses) in (η, x') layout; in a column split the device's block of
+        pulses, (n_c, ceil(num_pulses / devices)).
     """
+    return split_columns(
+        lambda columns: _columns_to_pulses(produce, terms, columns, delta_r, scale_powers,
+                                           wavenumber, pad, num_pulses, block, loops),
+        eta, num_pulses)
+
+
+def _columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, pad,
+                       num_pulses, block, loops):
+    """:func:`columns_to_pulses` of the columns ``eta`` on one device."""
     n_c = eta.shape[0]
 
     # terms that weight the same spectrum run in a scan over (weight, s(x')ⁿ): the

@@ -226,7 +226,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
 
     names: ClassVar[tuple[str, ...]] = ("high_speed",)
     physics: ClassVar[str] = "physics.md §10 (seed 004 §2–3)"
-    supports_squint = supports_moving_targets = True
+    supports_squint = supports_moving_targets = splits_columns = True
     # non-stop-and-go: a different model from the (stop-and-go) exact default, so
     # ``method="auto"`` does not substitute it (the base says so)
     grid_rules: ClassVar[dict] = dict(curvature=True)
@@ -248,10 +248,16 @@ class HighSpeed(AbstractStraightTrackSimulator):
         return HighSpeedPlan(groups, grid.lead, grid.n_r,
                              jnp.asarray(grid.included, dtype=float), support.bands)
 
-    def memory(self, plan, radar, scene, acquisition, dtype) -> int:
+    def memory(self, plan, radar, scene, acquisition, dtype, shards=1) -> int:
+        """Workspace [bytes] of one realization (or of one of ``shards`` devices its
+        columns are split over): the range lines' tables, one chunk of columns on the
+        padded azimuth grid, and the pulses' range spectra with their transform."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        chunk = min(self.column_chunk, plan.range_fft_size)
-        return int(16 * (3.0 * engine.range_line_count(scene) * n_x + 14.0 * n_x * chunk))
+        chunk = min(self.column_chunk, -(-plan.range_fft_size // shards))
+        spectra = 3.0 * acquisition.num_pulses * plan.range_fft_size / shards
+        item = jnp.dtype(dtype).itemsize
+        return int(16 * (3.0 * engine.range_line_count(scene) * n_x + 14.0 * n_x * chunk)
+                   + item * spectra)
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
         """≈ 40 FFT2-equivalents of the padded grid per velocity group and Doppler band
@@ -330,7 +336,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
             return jnp.where(keep, acc, 0.0)
 
         def columns(eta_cols):
-            """(n_pulses, chunk) raw range-spectrum columns for range wavenumbers η."""
+            """(chunk, n_pulses) raw range-spectrum columns for range wavenumbers η."""
             total = 0.0
             for m in range(-self.range_aliases, self.range_aliases + 1):
                 eta_m = eta_cols + m * _TWO_PI / dr
@@ -340,11 +346,17 @@ class HighSpeed(AbstractStraightTrackSimulator):
                 total = total + acc * factor[None, :]
             along = jnp.fft.ifft(total, axis=0)[pad:pad + n_pulses]
             carrier = jnp.exp(1j * xi_c * (x_pulses - x0))  # back from the ξ_d-centred grid
-            return (along * carrier[:, None]).astype(dtype)
+            return (along * carrier[:, None]).astype(dtype).T
 
-        chunk = min(self.column_chunk, n_r)
-        n_chunks = -(-n_r // chunk)
-        eta_p = jnp.pad(eta, (0, n_chunks * chunk - n_r)).reshape(n_chunks, chunk)
-        spectra = jax.lax.map(columns, eta_p)  # (n_chunks, n_pulses, chunk)
-        spectra = jnp.moveaxis(spectra, 0, 1).reshape(n_pulses, n_chunks * chunk)[:, :n_r]
-        return jnp.fft.ifft(spectra, axis=1)[:, :n_range].astype(dtype)
+        def chunked(eta_cols):
+            """(n, n_pulses) columns η, ``column_chunk`` at a time."""
+            n = eta_cols.shape[0]
+            chunk = min(self.column_chunk, n)
+            n_chunks = -(-n // chunk)
+            eta_p = jnp.pad(eta_cols, (0, n_chunks * chunk - n)).reshape(n_chunks, chunk)
+            spectra = jax.lax.map(columns, eta_p)  # (n_chunks, chunk, n_pulses)
+            return spectra.reshape(n_chunks * chunk, n_pulses)[:n]
+
+        # (n_r, pulses): every pulse, or this device's block in a column split
+        spectra = engine.split_columns(chunked, eta, n_pulses)
+        return jnp.fft.ifft(spectra.T, axis=1)[:, :n_range].astype(dtype)
