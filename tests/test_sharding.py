@@ -59,8 +59,8 @@ _SCRIPT = textwrap.dedent("""
                          pointing=1e-3 * rng.normal(size=shape))
 
     def compare(method, motion, scene=points, **kwargs):
-        kwargs = dict(method=method, num_pulses=num_pulses, num_range=96, near_range=5100.0,
-                      **kwargs)
+        kwargs = {**dict(method=method, num_pulses=num_pulses, num_range=96,
+                         near_range=5100.0), **kwargs}
         with warnings.catch_warnings():
             # budgets are not the subject here (a drawn grid may break one)
             warnings.simplefilter("ignore", sj.ValidityWarning)

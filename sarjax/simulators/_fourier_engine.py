@@ -262,6 +262,13 @@ def columns_across(axis: str, shards: int):
         _COLUMN_SPLIT.reset(token)
 
 
+def column_shards() -> int:
+    """Devices the columns are split over while tracing (1 outside a split): a column
+    loop sizes its chunks by it, so that a device's workspace shrinks with the split."""
+    split = _COLUMN_SPLIT.get()
+    return 1 if split is None else split.shards
+
+
 def split_columns(compute, eta, num_pulses):
     """``compute(eta)``, (n_c, num_pulses) spectra of the columns ``eta`` (n_c,) on the
     pulses, split across devices when traced inside :func:`columns_across`.

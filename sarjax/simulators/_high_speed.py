@@ -253,7 +253,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
         columns are split over): the range lines' tables, one chunk of columns on the
         padded azimuth grid, and the pulses' range spectra with their transform."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        chunk = min(self.column_chunk, -(-plan.range_fft_size // shards))
+        chunk = min(max(16, self.column_chunk // shards), -(-plan.range_fft_size // shards))
         spectra = 3.0 * acquisition.num_pulses * plan.range_fft_size / shards
         item = jnp.dtype(dtype).itemsize
         return int(16 * (3.0 * engine.range_line_count(scene) * n_x + 14.0 * n_x * chunk)
@@ -351,7 +351,8 @@ class HighSpeed(AbstractStraightTrackSimulator):
         def chunked(eta_cols):
             """(n, n_pulses) columns η, ``column_chunk`` at a time."""
             n = eta_cols.shape[0]
-            chunk = min(self.column_chunk, n)
+            # a device of a column split holds 1/shards of the chunk (its memory with it)
+            chunk = min(max(16, self.column_chunk // engine.column_shards()), n)
             n_chunks = -(-n // chunk)
             eta_p = jnp.pad(eta_cols, (0, n_chunks * chunk - n)).reshape(n_chunks, chunk)
             spectra = jax.lax.map(columns, eta_p)  # (n_chunks, chunk, n_pulses)
