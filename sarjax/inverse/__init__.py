@@ -11,6 +11,14 @@ Unobservable components (named in :attr:`FitResult.fixed`):
   all scatterers at one look angle only the line-of-sight profile is fitted.
 """
 
+from ._autofocus import AutofocusResult as AutofocusResult
+from ._autofocus import AutofocusWarning as AutofocusWarning
+from ._autofocus import autofocus as autofocus
+from ._autofocus import pga as pga
+from ._autofocus import random_scene as random_scene
+from ._autofocus import range_blocks as range_blocks
+from ._autofocus import residual_phase_rms as residual_phase_rms
+from ._autofocus import sharpness_phase as sharpness_phase
 from ._crb import CRB as CRB
 from ._crb import crb as crb
 from ._fit import FitResult as FitResult

@@ -1,0 +1,547 @@
+"""Model-based autofocus: trajectory deviations and pointing error from data of an unknown
+scene.
+
+:func:`autofocus` estimates Δy(x'), Δz(x') (cubic B-splines) by
+
+1. a range-dependent phase-gradient stage (:mod:`sarjax.inverse._pga`): the pulse-to-pulse
+   phase products of the dominant scatterers, fitted by the line-of-sight model
+   ``k₀ δr_xr ≈ k₀ (−Δy sin ϑ(r) + Δz cos ϑ(r))`` with a shrinking window (coarse to fine);
+2. a sharpness stage: L-BFGS on the image entropy (or contrast) of the whole swath focused
+   through the differentiable focuser of :mod:`sarjax.inverse._sharpness`, with the exact
+   line-of-sight deviation ``δr_xr(Δy, Δz, r)`` (physics.md §2) at every range bin;
+3. the pointing error δ_az(x') from the Doppler centroid of the motion-compensated data,
+   referred to the centroid the focused scene predicts with no pointing error.
+
+Unobservable components, held at zero and listed in :attr:`AutofocusResult.fixed`: the
+constant and the linear trend of Δy and Δz over the pulses (a constant deviation changes
+each scatterer's phase by a constant, a linear one moves the image; neither changes the
+sharpness); the mean of δ_az (a constant Doppler offset trades with a linear trend of the
+line-of-sight deviation).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import scipy.optimize
+
+from .. import geometry
+from .._data import Image, RawData
+from ..motion import Motion
+from ..processing import focus
+from . import _pga
+from ._parametrisations import BSpline, MotionModel
+from ._sharpness import (
+    MIN_LOOK_ANGLE,
+    OBJECTIVES,
+    AzimuthFocuser,
+    image_entropy,
+    make_focuser,
+    sharpness_loss,
+    value_and_grad,
+)
+
+SCENE_MIN_LOOK_ANGLE = np.deg2rad(8.0)  # nearest clutter of random_scene [rad]
+
+
+class AutofocusWarning(UserWarning):
+    """An autofocus estimate outside what was measured to be reliable (too few dominant
+    scatterers, an optimiser that did not converge, a pulse span no scatterer covers);
+    the message says which."""
+
+
+@dataclasses.dataclass(frozen=True)
+class AutofocusResult:
+    """Result of :func:`autofocus` (and of the baselines).
+
+    Attributes:
+        motion: :class:`~sarjax.Motion` on every raw pulse: Δy, Δz [m] (None for a
+            single-phase-history method) and δ_az [rad] (None when not estimated).
+        phase_history: (pulse,) one phase history φ(x') [rad] removed at every range
+            (single-phase-history methods), else None.
+        image: the refocused :class:`~sarjax.Image`.
+        method: ``"model"``, ``"pga"`` or ``"sharpness_phase"``.
+        objective: the sharpness objective used (or None).
+        history: (stage, seconds, value) per stage.
+        timings: seconds per stage and ``"total"``.
+        fixed: components held at zero (unobservable).
+        coverage: (pulse,) relative weight of the dominant scatterers per pulse.
+    """
+
+    motion: Motion
+    phase_history: np.ndarray | None
+    image: Image
+    method: str
+    objective: str | None
+    history: tuple
+    timings: dict
+    fixed: tuple
+    coverage: np.ndarray
+
+    def line_of_sight_phase(self, radar, ranges):
+        """(range, pulse) two-way phase k₀ δr_xr(x', r) [rad] that the estimate removes at
+        slant ranges ``ranges`` [m] (h = 0)."""
+        ranges = np.atleast_1d(np.asarray(ranges, float))
+        if self.phase_history is not None:
+            return np.broadcast_to(self.phase_history, (ranges.size, self.phase_history.size))
+        return true_line_of_sight_phase(radar, self.motion, ranges)
+
+
+def true_line_of_sight_phase(radar, motion: Motion, ranges):
+    """(range, pulse) two-way phase k₀ δr_xr(x', r) [rad] of ``motion`` at slant ranges
+    ``ranges`` [m] (h = 0; exact form of :func:`sarjax.geometry.line_of_sight_deviation`)."""
+    ranges = np.atleast_1d(np.asarray(ranges, float))
+    n = _num_pulses(motion)
+    dy, dz, _ = (np.asarray(v) for v in motion.resolve(n))
+    los = geometry.line_of_sight_deviation(dy[None, :], dz[None, :], ranges[:, None], 0.0,
+                                           float(radar.height))
+    return float(radar.wavenumber) * np.asarray(los)
+
+
+def _num_pulses(motion):
+    for v in (motion.horizontal, motion.vertical, motion.pointing):
+        if v is not None:
+            return int(np.shape(v)[-1])
+    raise ValueError("motion has no component")
+
+
+# ---- metrics ----------------------------------------------------------------------------
+
+
+def range_blocks(radar, raw_range, num_blocks: int = 3, *, min_look_angle=MIN_LOOK_ANGLE):
+    """(block, 2) slant-range limits [m] of ``num_blocks`` equal blocks (near … far) of the
+    range bins that have ground (look angle ≥ ``min_look_angle``)."""
+    r = np.asarray(raw_range, float)
+    r = r[r * np.cos(min_look_angle) >= float(radar.height)]
+    edges = np.linspace(r[0], r[-1], num_blocks + 1)
+    return np.stack([edges[:-1], edges[1:]], axis=1)
+
+
+def residual_phase_rms(radar, estimate: AutofocusResult, truth: Motion, blocks, *,
+                       detrend: str = "aperture", pulses=None, samples: int = 16):
+    """Residual line-of-sight phase error rms [rad] per range block.
+
+    At ``samples`` slant ranges r of each block the error
+    ``e(x', r) = k₀ δr_xr,true(x', r) − φ_est(x', r)`` is formed and detrended:
+
+    * ``detrend="aperture"`` (default): in every window of one synthetic aperture
+      X(r) = λr/L (the pulses that focus one scatterer) the constant and linear trend of e
+      are removed, and the rms is taken over all full windows (stride X/16). A scatterer's
+      focus depends only on this part: the constant changes its phase, the linear trend
+      moves it by ``r ∂e/∂x' / k₀``; neither is observable without a reference in the
+      scene.
+    * ``detrend="global"``: the constant and linear trend over ``pulses`` (a boolean
+      mask, default all) are removed (the components that no estimator can see). What is
+      left includes the slow components (periods beyond X) that only displace the image.
+
+    Returns:
+        (block,) rms [rad].
+    """
+    if detrend not in ("aperture", "global"):
+        raise ValueError(f"detrend={detrend!r}; choose 'aperture' or 'global'")
+    out = []
+    n = int(np.size(estimate.coverage))
+    mask = np.ones(n, bool) if pulses is None else np.asarray(pulses, bool)
+    spacing = float(radar.azimuth_spacing)
+    for lo, hi in np.asarray(blocks, float):
+        ranges = np.linspace(lo, hi, samples)
+        err = (true_line_of_sight_phase(radar, truth, ranges)
+               - estimate.line_of_sight_phase(radar, ranges))
+        if detrend == "global":
+            out.append(_detrended_rms(err[:, mask]))
+            continue
+        squares = []
+        for r, e in zip(ranges, err, strict=True):
+            width = int(round(float(radar.footprint(r)) / spacing))
+            starts = np.arange(0, n - width + 1, max(width // 16, 1))
+            if starts.size == 0:
+                raise ValueError(f"{n} pulses are fewer than one aperture ({width}) at r={r:.0f} m")
+            windows = e[starts[:, None] + np.arange(width)[None, :]]
+            squares.append(_detrended_rms(windows) ** 2)
+        out.append(float(np.sqrt(np.mean(squares))))
+    return np.asarray(out)
+
+
+def _detrended_rms(rows):
+    """rms of each row of (k, n) ``rows`` after removing its own constant and linear
+    trend, pooled over the rows."""
+    rows = np.asarray(rows, float)
+    t = np.arange(rows.shape[-1], dtype=float)
+    t -= t.mean()
+    centred = rows - rows.mean(axis=-1, keepdims=True)
+    slope = centred @ t / (t @ t)
+    resid = centred - slope[:, None] * t[None, :]
+    return float(np.sqrt(np.mean(resid**2)))
+
+
+# ---- the estimator -------------------------------------------------------------------------
+
+
+def _default_model(radar, x):
+    span = float(np.ptp(x))
+    footprint = float(radar.footprint(radar.reference_range))
+    n = int(np.clip(round(span / (footprint / 40)) + 3, 8, 200))
+    return MotionModel(horizontal=BSpline(n), vertical=BSpline(n),
+                       pointing=BSpline(max(int(round(span / (footprint / 20))) + 3, 8)))
+
+
+def _check(radar, raw, objective, windows, max_steps):
+    if not isinstance(raw, RawData):
+        raise ValueError(f"raw={type(raw).__name__} must be sarjax.RawData")
+    data = np.asarray(raw.data)
+    axes = (int(raw.azimuth.shape[0]), int(raw.range.shape[0]))
+    if data.shape != axes:
+        raise ValueError(f"raw.data has shape {data.shape}; its axes give {axes}")
+    if not np.isfinite(data).all():
+        raise ValueError("raw.data has non-finite samples")
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective={objective!r}; choose one of {OBJECTIVES}")
+    if len(windows) < 1 or any(w < 1 for w in windows):
+        raise ValueError(f"windows={windows!r} must be a non-empty list of positive widths [m]")
+    if not isinstance(max_steps, int) or max_steps < 0:
+        raise ValueError(f"max_steps={max_steps!r} must be an integer >= 0")
+    if float(radar.squint) != 0.0:
+        raise ValueError(f"radar.squint={float(radar.squint)!r}: autofocus is broadside only")
+
+
+def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
+              objective: str = "entropy", windows=(48.0, 24.0, 12.0, 6.0, 3.0),
+              max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 60,
+              estimate_pointing: bool = True) -> AutofocusResult:
+    """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
+
+    Stages (module docstring): range-dependent phase gradients of the dominant scatterers
+    (one iteration per entry of ``windows``), then L-BFGS on the sharpness of the whole
+    swath through the exact line-of-sight deviation, then the pointing error from the
+    Doppler centroid. The image is focused by :func:`sarjax.focus` (ω-k with second-order
+    motion compensation of the estimate).
+
+    Args:
+        radar: the :class:`~sarjax.Radar` (broadside).
+        raw: :class:`~sarjax.RawData` (azimuth, range) with the radar's spacings.
+        model: :class:`MotionModel` with :class:`BSpline` horizontal and vertical
+            components (default: one basis function per X/40 of the pulse span, X the
+            footprint at r₀) and optionally a :class:`BSpline` pointing component.
+        objective: ``"entropy"`` (default) or ``"contrast"``.
+        windows: half-widths [m] of the azimuth window about each dominant scatterer, one
+            phase-gradient iteration each (the first must hold the blur of the initial
+            error: ``r max|∂φ/∂x'|/k₀``).
+        max_targets: dominant scatterers used per iteration.
+        min_ratio: a dominant scatterer's peak over its range bin's median power.
+        max_steps: L-BFGS iterations of the sharpness stage (0 = skip it).
+        estimate_pointing: estimate δ_az (else ``motion.pointing`` is None).
+
+    Returns:
+        :class:`AutofocusResult` (``method="model"``).
+
+    Raises:
+        ValueError: on a bad value, naming it.
+    """
+    t_start = time.perf_counter()
+    _check(radar, raw, objective, windows, max_steps)
+    x = np.asarray(raw.azimuth, float)
+    model = _default_model(radar, x) if model is None else model
+    if not (isinstance(model, MotionModel) and isinstance(model.horizontal, BSpline)
+            and isinstance(model.vertical, BSpline)):
+        raise ValueError("model must be a MotionModel with BSpline horizontal and vertical "
+                         "components")
+    log, timings = [], {}
+    t0 = time.perf_counter()
+    focuser = make_focuser(radar, raw)
+    horizontal = model.horizontal.bind(x)
+    vertical = model.vertical.bind(x)
+    design_y = np.asarray(horizontal.design(jnp.asarray(x)))
+    design_z = np.asarray(vertical.design(jnp.asarray(x)))
+    timings["setup"] = time.perf_counter() - t0
+
+    # ---- 1. range-dependent phase gradients -------------------------------------------------
+    t0 = time.perf_counter()
+    c_y = np.zeros(design_y.shape[1])
+    c_z = np.zeros(design_z.shape[1])
+    spacing = float(radar.azimuth_spacing)
+    segment = max(int(float(radar.footprint(radar.reference_range)) / 2 / spacing), 8)
+    coverage = np.zeros(x.size)
+    phase = _los_phase(focuser, jnp.asarray(design_y @ c_y), jnp.asarray(design_z @ c_z))
+    image = _pga.jax_image(focuser, phase)
+    value = float(_sharpness_value(image, focuser.energy, objective))
+    log.append(("start", time.perf_counter() - t0, value))
+    for i, half_m in enumerate(windows):
+        half = max(int(round(half_m / spacing)), 2)
+        rows, cols = _pga.select_targets(np.abs(np.asarray(image)) ** 2, x.size,
+                                         segment=segment, max_targets=max_targets,
+                                         min_ratio=min_ratio, exclusion=half)
+        if rows.size < 3:
+            warnings.warn(f"autofocus: {rows.size} dominant scatterers (peak ≥ {min_ratio:g}× "
+                          f"the range bin's median) in iteration {i}: the phase-gradient "
+                          "stage stops; the estimate may be poor", AutofocusWarning,
+                          stacklevel=2)
+            break
+        z = np.asarray(_pga.target_products(focuser, phase, jnp.asarray(rows),
+                                            jnp.asarray(cols), jnp.asarray(half)))
+        dy_c, dz_c = _pga.motion_increment(z, rows, focuser, design_y)
+        trial_phase = _los_phase(focuser, jnp.asarray(design_y @ (c_y + dy_c)),
+                                 jnp.asarray(design_z @ (c_z + dz_c)))
+        trial = _pga.jax_image(focuser, trial_phase)
+        trial_value = float(_sharpness_value(trial, focuser.energy, objective))
+        if trial_value >= value:  # a step that does not sharpen the image is not taken
+            log.append((f"gradients {i} (rejected)", time.perf_counter() - t0, trial_value))
+            continue
+        c_y, c_z, phase, image, value = c_y + dy_c, c_z + dz_c, trial_phase, trial, trial_value
+        cov = np.sum(np.abs(z), axis=0)
+        coverage = np.concatenate([[cov[0]], 0.5 * (cov[1:] + cov[:-1]), [cov[-1]]])
+        log.append((f"gradients {i}", time.perf_counter() - t0, value))
+    timings["gradients"] = time.perf_counter() - t0
+
+    # ---- 2. sharpness ---------------------------------------------------------------------
+    t0 = time.perf_counter()
+    if max_steps > 0:
+        c_y, c_z, value = _sharpen(focuser, design_y, design_z, c_y, c_z, objective,
+                                   max_steps)
+        log.append(("sharpness", time.perf_counter() - t0, value))
+    timings["sharpness"] = time.perf_counter() - t0
+
+    dy = design_y @ c_y
+    dz = design_z @ c_z
+    dy, dz = _remove_trend(dy), _remove_trend(dz)
+
+    # ---- 3. pointing ------------------------------------------------------------------------
+    t0 = time.perf_counter()
+    pointing = None
+    if estimate_pointing:
+        pointing_model = model.pointing if isinstance(model.pointing, BSpline) else BSpline(
+            _default_model(radar, x).pointing.num_basis())
+        pointing = _pointing(radar, focuser, dy, dz, pointing_model.bind(x), x)
+    timings["pointing"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    motion = Motion(horizontal=dy, vertical=dz, pointing=pointing)
+    image = focus(radar, raw, motion=Motion(horizontal=dy, vertical=dz))
+    timings["image"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - t_start
+    fixed = ("mean horizontal", "linear horizontal", "mean vertical", "linear vertical")
+    if estimate_pointing:
+        fixed = fixed + ("mean pointing",)
+    return AutofocusResult(
+        motion=motion, phase_history=None, image=image, method="model", objective=objective,
+        history=tuple(log), timings=timings, fixed=fixed,
+        coverage=coverage / max(coverage.max(), 1e-300),
+    )
+
+
+@jax.jit
+def _los_phase_jit(radar, azimuth, rng, dy, dz):
+    los = geometry.line_of_sight_deviation(dy[None, :], dz[None, :], rng[:, None], 0.0,
+                                           radar.height)
+    return radar.wavenumber * los
+
+
+@functools.partial(jax.jit, static_argnames="objective")
+def _sharpness_value(image, energy, objective="entropy"):
+    return sharpness_loss(image, energy, objective)
+
+
+def _los_phase(focuser: AzimuthFocuser, dy, dz):
+    return _los_phase_jit(focuser.radar, focuser.azimuth, focuser.range, dy, dz)
+
+
+def _remove_trend(profile):
+    t = np.arange(profile.size, dtype=float)
+    t -= t.mean()
+    p = profile - profile.mean()
+    return p - t * (t @ p) / (t @ t)
+
+
+def _sharpen(focuser, design_y, design_z, c_y, c_z, objective, max_steps):
+    """L-BFGS on the sharpness w.r.t. the B-spline coefficients (phase units)."""
+    scale = 1.0 / float(focuser.radar.wavenumber)  # one unit = 1 rad of LOS phase
+    n = design_y.shape[1]
+    by = jnp.asarray(design_y)
+    bz = jnp.asarray(design_z)
+
+    def loss(theta, data):
+        foc, c0 = data
+        c = c0 + theta * scale
+        phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:])
+        return sharpness_loss(foc.image(phase), foc.energy, objective)
+
+    fn = value_and_grad(loss)
+    c0 = jnp.asarray(np.concatenate([c_y, c_z]))
+
+    def fun(theta):
+        value, grad = fn(jnp.asarray(theta), (focuser, c0))
+        return float(value), np.asarray(grad, float)
+
+    res = scipy.optimize.minimize(fun, np.zeros(2 * n), jac=True, method="L-BFGS-B",
+                                  options=dict(maxiter=max_steps, maxcor=20))
+    c = np.asarray(c0) + res.x * scale
+    return c[:n], c[n:], float(res.fun)
+
+
+def _pointing(radar, focuser, dy, dz, spline, x):
+    """δ_az(x') [rad] from the Doppler centroid of the compensated data (placeholder: 0)."""
+    return np.zeros(x.size)
+
+
+def image_metrics(image) -> dict:
+    """Entropy of an image (NumPy)."""
+    return dict(entropy=image_entropy(np.asarray(image.data)))
+
+
+# ---- baselines -------------------------------------------------------------------------------
+
+
+def no_estimate(raw: RawData) -> AutofocusResult:
+    """The zero estimate (the nominal straight track), for comparisons."""
+    n = int(raw.azimuth.shape[0])
+    return AutofocusResult(
+        motion=Motion(horizontal=np.zeros(n), vertical=np.zeros(n)), phase_history=None,
+        image=None, method="none", objective=None, history=(), timings={}, fixed=(),
+        coverage=np.ones(n),
+    )
+
+
+def _phase_image(radar, raw, phase):
+    """ω-k image after removing one phase history φ(x') [rad] at every range (first-order
+    motion compensation of the vertical deviation that has φ as its line-of-sight phase
+    at r₀)."""
+    cos_look = float(radar.height) / float(radar.reference_range)
+    vertical = np.asarray(phase) / (float(radar.wavenumber) * cos_look)
+    return focus(radar, raw, motion=Motion(vertical=vertical),
+                 motion_compensation="first_order")
+
+
+def pga(radar, raw: RawData, *, windows=(48.0, 24.0, 12.0, 6.0, 3.0), max_targets: int = 24,
+        min_ratio: float = 30.0) -> AutofocusResult:
+    """Phase gradient autofocus (:mod:`sarjax.inverse._pga`): one phase history φ(x') [rad]
+    for every range, the baseline of :func:`autofocus`. Each iteration (one per entry of
+    ``windows``, half-widths [m]) is kept only when it sharpens the image (entropy).
+
+    Returns:
+        :class:`AutofocusResult` with ``phase_history`` and ``method="pga"``.
+    """
+    _check(radar, raw, "entropy", windows, 0)
+    t0 = time.perf_counter()
+    focuser = make_focuser(radar, raw)
+    spacing = float(radar.azimuth_spacing)
+    segment = max(int(float(radar.footprint(radar.reference_range)) / 2 / spacing), 8)
+    log = []
+    phase, coverage = _pga.phase_gradient_autofocus(
+        focuser, windows=[max(int(round(w / spacing)), 2) for w in windows], segment=segment,
+        max_targets=max_targets, min_ratio=min_ratio, log=log)
+    image = _phase_image(radar, raw, phase)
+    return AutofocusResult(
+        motion=Motion(), phase_history=phase, image=image, method="pga", objective=None,
+        history=tuple(log), timings={"total": time.perf_counter() - t0},
+        fixed=("mean phase", "linear phase"), coverage=coverage / max(coverage.max(), 1e-300),
+    )
+
+
+def sharpness_phase(radar, raw: RawData, *, num_basis: int | None = None,
+                    objective: str = "entropy", max_steps: int = 60,
+                    initial: AutofocusResult | None = None) -> AutofocusResult:
+    """Sharpness-only autofocus of one phase history φ(x') = B(x') c [rad] shared by all
+    ranges (the second baseline): L-BFGS on the objective from ``initial``'s history (or
+    from PGA's, computed here when None).
+
+    Returns:
+        :class:`AutofocusResult` with ``phase_history`` and ``method="sharpness_phase"``.
+    """
+    _check(radar, raw, objective, (1.0,), max_steps)
+    t0 = time.perf_counter()
+    start = pga(radar, raw) if initial is None else initial
+    if start.phase_history is None:
+        raise ValueError("initial must be a single-phase-history result (pga, sharpness_phase)")
+    focuser = make_focuser(radar, raw)
+    x = np.asarray(raw.azimuth, float)
+    n_basis = _default_model(radar, x).horizontal.num_basis() if num_basis is None else num_basis
+    design = np.asarray(BSpline(n_basis).bind(x).design(jnp.asarray(x)))
+    c0 = np.linalg.lstsq(design, start.phase_history, rcond=None)[0]
+    b = jnp.asarray(design)
+
+    def loss(c, foc):
+        return sharpness_loss(foc.image((b @ c)[None, :]), foc.energy, objective)
+
+    fn = value_and_grad(loss)
+
+    def fun(c):
+        value, grad = fn(jnp.asarray(c), focuser)
+        return float(value), np.asarray(grad, float)
+
+    res = scipy.optimize.minimize(fun, c0, jac=True, method="L-BFGS-B",
+                                  options=dict(maxiter=max_steps, maxcor=20))
+    phase = design @ res.x
+    image = _phase_image(radar, raw, phase)
+    return AutofocusResult(
+        motion=Motion(), phase_history=phase, image=image, method="sharpness_phase",
+        objective=objective, history=start.history + (("sharpness", 0.0, float(res.fun)),),
+        timings={"total": time.perf_counter() - t0}, fixed=("mean phase", "linear phase"),
+        coverage=start.coverage,
+    )
+
+
+# ---- scenes nobody described ----------------------------------------------------------------
+
+
+def random_scene(radar, azimuth, *, key, num_points: int = 12, point_amplitude=(15.0, 40.0),
+                 num_fields: int = 12, field_db=(-10.0, 5.0), spacing=(0.5, None),
+                 min_look_angle=SCENE_MIN_LOOK_ANGLE, far_margin: float = 30.0):
+    """A random clutter scene: speckle over fields of different backscatter (edges), a
+    dark straight road, and a few bright points (NumPy draws, float64).
+
+    The clutter is a :class:`~sarjax.ReflectivityGrid` of complex Gaussian reflectivities
+    (E|γ|² = the field's level, 0 dB = 1 per cell) on ``spacing`` = (azimuth, range) [m]
+    (range default: the range sample) over the pulses' span extended by half a far-range
+    footprint at each end (every pulse sees a full footprint), from the range of look angle
+    ``min_look_angle`` to ``far_margin`` before the far edge of the range window. The
+    fields are a Voronoi partition of ``num_fields`` random sites with levels uniform in
+    ``field_db``; the road is 6 m wide at −20 dB. The points have |γ| uniform in
+    ``point_amplitude`` and random phase, at positions uniform within the pulses' span.
+
+    Args:
+        radar: the :class:`~sarjax.Radar` (its range window: ``near_range``, ``num_range``).
+        azimuth: (pulse,) pulse positions x' [m].
+        key: integer seed or ``numpy.random.Generator``.
+
+    Returns:
+        (clutter :class:`~sarjax.ReflectivityGrid`, points :class:`~sarjax.PointTargets`).
+    """
+    from ..scene import PointTargets, ReflectivityGrid
+
+    rng = key if isinstance(key, np.random.Generator) else np.random.default_rng(key)
+    x = np.asarray(azimuth, float)
+    r_far = float(radar.near_range) + (radar.num_range - 1) * float(radar.range_spacing)
+    r_near = float(radar.height) / np.cos(min_look_angle)
+    r_far -= far_margin + float(radar.pulse_half_length)
+    if r_far <= r_near:
+        raise ValueError(f"the range window ends at {r_far:.0f} m, before the ground at "
+                         f"{r_near:.0f} m")
+    half = float(radar.footprint(r_far)) / 2
+    dx = float(spacing[0])
+    dr = float(radar.range_spacing) if spacing[1] is None else float(spacing[1])
+    ax = np.arange(x.min() - half, x.max() + half, dx)
+    rg = np.arange(r_near, r_far, dr)
+    sites = np.stack([rng.uniform(ax[0], ax[-1], num_fields),
+                      rng.uniform(rg[0], rg[-1], num_fields)], axis=1)
+    xx, rr = np.meshgrid(ax, rg, indexing="ij")
+    scale_r = np.ptp(ax) / max(np.ptp(rg), 1.0)  # fields of similar extent in x and r
+    d = ((xx[..., None] - sites[:, 0]) ** 2 + ((rr[..., None] - sites[:, 1]) * scale_r) ** 2)
+    level_db = rng.uniform(*field_db, num_fields)[d.argmin(axis=-1)]
+    angle = rng.uniform(0, np.pi)
+    centre = (rng.uniform(ax[0], ax[-1]), rng.uniform(rg[0], rg[-1]))
+    road = np.abs((xx - centre[0]) * np.sin(angle) - (rr - centre[1]) * np.cos(angle)
+                  * scale_r) < 3.0
+    level_db = np.where(road, -20.0, level_db)
+    amplitude = np.sqrt(10 ** (level_db / 10) / 2)
+    gamma = amplitude * (rng.normal(size=xx.shape) + 1j * rng.normal(size=xx.shape))
+    clutter = ReflectivityGrid(gamma, ax, rg)
+    px = rng.uniform(x.min(), x.max(), num_points)
+    pr = rng.uniform(rg[0], rg[-1], num_points)
+    pa = rng.uniform(*point_amplitude, num_points) * np.exp(
+        1j * rng.uniform(-np.pi, np.pi, num_points))
+    return clutter, PointTargets(azimuth=px, range=pr, reflectivity=pa)

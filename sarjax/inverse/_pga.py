@@ -1,0 +1,229 @@
+"""Phase gradient autofocus (PGA) for stripmap data, and its range-dependent variant.
+
+Spotlight PGA (Wahl, Eichel, Ghiglia & Jakowatz 1994; the maximum-likelihood gradient of
+Jakowatz & Wahl 1993) takes the brightest scatterer of every range line, shifts it to the
+centre, windows it, transforms back to the phase-history domain and estimates one phase
+error shared by all of them from the pulse-to-pulse products
+``Δφ(p) = arg Σ_k g_k(p+1) g_k*(p)``; it iterates with a shrinking window. In stripmap each
+scatterer is seen only over its own footprint, so here every selected scatterer k at
+(x_k, r_k) gives its own history over the pulses that illuminate it:
+
+    g_k(x') = F⁻¹_ξ{ F_x{w(x − x_k) I(x, r_k)} · exp[−j(√(k₀² − ξ²) − k₀) r_k] }
+              · exp[+j k₀ (√(r_k² + (x' − x_k)²) − r_k)]
+            ≈ a_k W²((x' − x_k)/X_k) · exp[−j φ(x', r_k)]
+
+(the windowed image line re-spread by the inverse azimuth filter and de-chirped with the
+scatterer's nominal range history; ``φ`` the residual phase error). Its gradient carries a
+slope ``b_k`` of its own (the peak's sub-pixel offset and the local linear phase, which
+only moves the scatterer), so the estimate is the joint solution of
+
+    z_k(p) = g_k(p+1) g_k*(p) ≈ |z_k(p)| exp{j[Δφ(p, r_k) + b_k]}
+
+by alternating ``Δφ(p) = arg Σ_k z_k(p) e^{−j b_k}`` and ``b_k = arg Σ_p z_k(p) e^{−jΔφ(p)}``.
+
+* :func:`phase_gradient_autofocus` — one phase history ``φ(x')`` for all ranges (the
+  standard algorithm; it cannot follow the line-of-sight change across the swath).
+* ``motion_gradients`` — the same products fitted by a range-dependent model:
+  ``Δφ(p, r) = −k₀ [−ΔΔy(p) sin ϑ(r) + ΔΔz(p) cos ϑ(r)]`` with Δy, Δz B-splines, by
+  weighted linear least squares (the initial estimate of :func:`sarjax.inverse.autofocus`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ._sharpness import AzimuthFocuser
+
+
+def select_targets(power, num_pulses: int, *, segment: int, max_targets: int,
+                   min_ratio: float, exclusion: int):
+    """Dominant scatterers of an image (NumPy).
+
+    Each range bin is cut into azimuth segments of ``segment`` columns; the peak of each
+    segment is a candidate, scored by its power over the bin's median power. Candidates
+    scoring below ``min_ratio`` are dropped; the rest are taken strongest first, skipping
+    one within 2 range bins and ``exclusion`` columns of a stronger one (its range
+    sidelobes), up to ``max_targets``.
+
+    Args:
+        power: (range, n_fft) image intensity.
+        num_pulses: columns that hold pulses (the rest is padding).
+
+    Returns:
+        (rows, cols) integer arrays of the selected scatterers.
+    """
+    n_rows, n_cols = power.shape
+    n_seg = n_cols // segment
+    blocks = power[:, : n_seg * segment].reshape(n_rows, n_seg, segment)
+    arg = blocks.argmax(axis=-1)
+    peak = np.take_along_axis(blocks, arg[..., None], axis=-1)[..., 0]
+    median = np.median(power[:, :num_pulses], axis=1, keepdims=True)
+    score = peak / np.maximum(median, 1e-300)
+    rows, segs = np.nonzero(score >= min_ratio)
+    cols = segs * segment + arg[rows, segs]
+    order = np.argsort(-peak[rows, segs], kind="stable")
+    chosen_r, chosen_c = [], []
+    for i in order:
+        r, c = rows[i], cols[i]
+        near = [abs(r - rr) <= 2 and min(abs(c - cc), n_cols - abs(c - cc)) <= exclusion
+                for rr, cc in zip(chosen_r, chosen_c, strict=True)]
+        if any(near):
+            continue
+        chosen_r.append(r)
+        chosen_c.append(c)
+        if len(chosen_r) >= max_targets:
+            break
+    return np.asarray(chosen_r, int), np.asarray(chosen_c, int)
+
+
+@eqx.filter_jit
+def target_products(focuser: AzimuthFocuser, phase, rows, cols, half_window):
+    """Pulse-to-pulse products ``z_k(p) = g_k(p+1) g_k*(p)`` of the selected scatterers.
+
+    Args:
+        focuser: the :class:`AzimuthFocuser`.
+        phase: (range, pulse) compensation applied to the data [rad].
+        rows, cols: (k,) range bin and image column of each scatterer.
+        half_window: half-width of the azimuth window about each peak [columns] (traced).
+
+    Returns:
+        (k, pulse − 1) complex products.
+    """
+    image = focuser.image(phase[rows], range_index=rows)  # (k, n_fft)
+    n_fft = image.shape[-1]
+    column = jnp.arange(n_fft)
+    distance = jnp.abs(column[None, :] - cols[:, None])
+    distance = jnp.minimum(distance, n_fft - distance)
+    windowed = jnp.where(distance <= half_window, image, 0.0)
+    history = focuser.unfocus(windowed, rows)[:, : focuser.num_pulses]
+    spacing = focuser.radar.azimuth_spacing
+    x0 = focuser.azimuth[0]
+    wrapped = jnp.where(cols > (focuser.num_pulses + n_fft) // 2, cols - n_fft, cols)
+    x_target = x0 + wrapped * spacing
+    r = focuser.range[rows]
+    along = focuser.azimuth[None, :] - x_target[:, None]
+    nominal = along**2 / (jnp.sqrt(r[:, None] ** 2 + along**2) + r[:, None])  # R_n − r
+    dechirped = history * jnp.exp(1j * focuser.radar.wavenumber * nominal).astype(
+        history.dtype)
+    return dechirped[:, 1:] * jnp.conj(dechirped[:, :-1])
+
+
+def common_gradient(products, *, iterations: int = 30):
+    """One phase gradient for all scatterers: (Δφ (pulse − 1,), b (k,), coverage (pulse − 1,)).
+
+    ``coverage`` is ``Σ_k |z_k(p)|`` (0 where no scatterer illuminates pulse p)."""
+    z = np.asarray(products, np.complex128)
+    slope = np.zeros(z.shape[0])
+    for _ in range(iterations):
+        gradient = np.angle(np.sum(z * np.exp(-1j * slope)[:, None], axis=0))
+        slope = np.angle(np.sum(z * np.exp(-1j * gradient)[None, :], axis=1))
+    return gradient, slope, np.sum(np.abs(z), axis=0)
+
+
+def integrate(gradient, coverage, *, min_fraction: float = 1e-3):
+    """(pulse,) phase from its pulse-to-pulse gradient, zero-mean; gradients where the
+    coverage is below ``min_fraction`` of its maximum count as 0 (no information)."""
+    g = np.where(coverage >= min_fraction * coverage.max(), gradient, 0.0)
+    phase = np.concatenate([[0.0], np.cumsum(g)])
+    return phase - phase.mean()
+
+
+def motion_increment(products, rows, focuser: AzimuthFocuser, design, *,
+                     iterations: int = 4, ridge: float = 1e-3):
+    """Range-dependent fit of the products: B-spline increments of Δy, Δz [m].
+
+    Solves ``arg z_k(p) − b_k = −k₀ [−sin ϑ_k ΔB(p) c_y + cos ϑ_k ΔB(p) c_z]`` (ΔB the
+    pulse-to-pulse difference of the (pulse, basis) ``design``) for (c_y, c_z) by weighted
+    linear least squares (weights |z_k(p)|), alternating with the slopes b_k. The
+    constant of Δy and Δz drops out of the differences; a ridge ``ridge × trace/n`` keeps
+    it (and any unilluminated span) at the smallest norm.
+
+    Returns:
+        (c_y, c_z) coefficient increments, each (basis,).
+    """
+    z = np.asarray(products, np.complex128)
+    r = np.asarray(focuser.range)[rows]
+    height = float(focuser.radar.height)
+    k0 = float(focuser.radar.wavenumber)
+    cos_look = height / r
+    sin_look = np.sqrt(1 - cos_look**2)
+    diff = np.diff(np.asarray(design), axis=0)  # (pulse − 1, basis)
+    weight = np.abs(z)
+    keep = weight >= 1e-3 * weight.max(axis=1, keepdims=True)
+    k_idx, p_idx = np.nonzero(keep)
+    w = np.sqrt(weight[k_idx, p_idx])
+    a = np.concatenate([k0 * sin_look[k_idx, None] * diff[p_idx],
+                        -k0 * cos_look[k_idx, None] * diff[p_idx]], axis=1)
+    aw = a * w[:, None]
+    normal = aw.T @ aw
+    normal += ridge * np.trace(normal) / normal.shape[0] * np.eye(normal.shape[0])
+    slope = np.zeros(z.shape[0])
+    coef = np.zeros(a.shape[1])
+    for _ in range(iterations):
+        phase = np.angle(z[k_idx, p_idx] * np.exp(-1j * slope[k_idx]))
+        coef = np.linalg.solve(normal, aw.T @ (w * phase))
+        model = a @ coef
+        resid = z[k_idx, p_idx] * np.exp(-1j * model)
+        sums = np.zeros(z.shape[0], complex)
+        np.add.at(sums, k_idx, resid)
+        slope = np.angle(sums)
+    n = diff.shape[1]
+    return coef[:n], coef[n:]
+
+
+def phase_gradient_autofocus(focuser: AzimuthFocuser, *, windows, segment: int,
+                             max_targets: int = 64, min_ratio: float = 30.0,
+                             initial=None, log=None):
+    """Stripmap PGA: one phase history φ(x') [rad] for all ranges (module docstring).
+
+    Args:
+        focuser: :class:`AzimuthFocuser` of the data.
+        windows: half-widths of the azimuth window per iteration [columns], e.g. shrinking.
+        segment: azimuth segment per candidate [columns] (about half a footprint).
+        max_targets: scatterers used per iteration.
+        min_ratio: candidate peak over the range bin's median power.
+        initial: (pulse,) starting phase history, or None.
+        log: optional list that receives (iteration, seconds, number of scatterers).
+
+    Returns:
+        (phase (pulse,), coverage (pulse,)): the history removed by ``exp(+jφ)`` and the
+        summed product magnitude per pulse (0 = no scatterer saw the pulse).
+    """
+    n = focuser.num_pulses
+    phase = np.zeros(n) if initial is None else np.asarray(initial, float).copy()
+    coverage = np.zeros(n)
+    for i, half in enumerate(windows):
+        t0 = time.perf_counter()
+        image = focuser.image(jnp.asarray(phase)[None, :])
+        rows, cols = select_targets(np.abs(np.asarray(image)) ** 2, n, segment=segment,
+                                    max_targets=max_targets, min_ratio=min_ratio,
+                                    exclusion=int(half))
+        if rows.size == 0:
+            break
+        tiled = jnp.broadcast_to(jnp.asarray(phase)[None, :], (focuser.range.shape[0], n))
+        z = target_products(focuser, tiled, jnp.asarray(rows), jnp.asarray(cols),
+                            jnp.asarray(half))
+        gradient, _, cov = common_gradient(np.asarray(z))
+        # the products carry exp(−jφ): the residual error is −∫Δφ
+        phase = phase - integrate(gradient, cov)
+        coverage = np.concatenate([[cov[0]], 0.5 * (cov[1:] + cov[:-1]), [cov[-1]]])
+        if log is not None:
+            log.append((f"pga {i}", time.perf_counter() - t0, int(rows.size)))
+    return phase, coverage
+
+
+def image_power(focuser: AzimuthFocuser, phase):
+    """(range, n_fft) |I|² after compensating ``phase`` (range, pulse) [rad]."""
+    return np.abs(np.asarray(_image(focuser, phase))) ** 2
+
+
+@eqx.filter_jit
+def _image(focuser, phase):
+    return focuser.image(phase)
+
+
+jax_image = _image
