@@ -265,6 +265,44 @@ def validity_map(dataset, path=None, *, title="Validity map", limit_db=-25.0):
     return _finish(fig, path)
 
 
+def fit_monte_carlo(dataset, path=None, *, title="Motion fits against the Cramér–Rao bound"):
+    """A fit campaign's line-of-sight errors against the bound: one panel per deviation rms,
+    the empirical distribution (CDF) of error / CRB per SNR over the realizations done,
+    fits that did not converge marked with crosses at their ratio; the dashed line is an
+    efficient estimator's ratio (1). ``dataset``: a :func:`sarjax.campaign.load` store of
+    a :class:`sarjax.campaign.FitMonteCarlo`."""
+    plt = _plt()
+    rms = np.asarray(dataset["deviation_rms"].values, float)
+    snr = np.asarray(dataset["snr_db"].values, float)
+    error = np.asarray(dataset["error_los"].values, float)
+    bound = np.asarray(dataset["crb_los"].values, float)
+    converged = np.asarray(dataset["converged"].values)
+    amplitudes = sorted(set(rms))
+    fig, axes = plt.subplots(1, len(amplitudes), figsize=(4.2 * len(amplitudes), 3.4),
+                             sharey=True, squeeze=False)
+    for ax, r in zip(axes[0], amplitudes, strict=True):
+        for q in sorted(set(snr[rms == r])):
+            sel = (rms == r) & (snr == q) & (converged >= 0) & np.isfinite(error / bound)
+            if not np.any(sel):
+                continue
+            ratio = np.sort(error[sel] / bound[sel])
+            share = np.arange(1, ratio.size + 1) / ratio.size
+            (line,) = ax.step(ratio, share, where="post",
+                              label=f"{q:g} dB ({ratio.size} fits)")
+            failed = sel & (converged == 0)
+            ax.plot(error[failed] / bound[failed],
+                    np.interp(error[failed] / bound[failed], ratio, share), "x",
+                    color=line.get_color())
+        ax.axvline(1.0, ls="--", color="k", lw=0.8)
+        ax.set_xscale("log")
+        ax.set(title=f"deviation rms {r * 100:g} cm", xlabel="LOS error / CRB")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("share of fits ≤ ratio")
+    axes[0][0].legend(fontsize=8, title="SNR (× not converged)", title_fontsize=8)
+    fig.suptitle(title)
+    return _finish(fig, path)
+
+
 def _finish(fig, path):
     if path is not None:
         fig.savefig(path, dpi=110, bbox_inches="tight")

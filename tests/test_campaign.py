@@ -295,3 +295,35 @@ def test_fit_campaign_measures_error_against_the_bound(tmp_path):
             assert 0.5 < data["std_los"][s] / data["crb_los"][s] < 2.0, data
     table = cp.summary(cp.load(path))
     assert "error/CRB" in table and "2/2" in table, table
+    png = tmp_path / "fits.png"
+    assert sj.plot.fit_monte_carlo(cp.load(path), path=png) == png and png.stat().st_size
+
+
+def test_fit_plot_draws_every_grid_point():
+    """(A made-up store: no fit runs.) One panel per deviation rms, one curve per SNR over
+    the fits done; the unfinished scenarios (converged = −1) and a failed fit's NaN
+    bound are left out of the curves."""
+    import xarray as xr
+
+    rng = np.random.default_rng(3)
+    n = 24
+    rms = np.repeat([0.005, 0.02], n // 2)
+    snr = np.tile(np.repeat([0.0, 10.0], n // 4), 2)
+    converged = rng.choice([1, 1, 1, 0, -1], size=n)
+    bound = np.where(rng.random(n) < 0.1, np.nan, 1e-4)
+    dataset = xr.Dataset(dict(
+        deviation_rms=("scenario", rms), snr_db=("scenario", snr),
+        error_los=("scenario", bound * rng.uniform(0.5, 3, n)), crb_los=("scenario", bound),
+        converged=("scenario", converged)))
+    fig = sj.plot.fit_monte_carlo(dataset)
+    panels = fig.axes
+    assert [ax.get_title() for ax in panels] == ["deviation rms 0.5 cm", "deviation rms 2 cm"]
+    for ax, r in zip(panels, (0.005, 0.02), strict=True):
+        curves = [line for line in ax.get_lines() if line.get_label().endswith("fits)")]
+        assert len(curves) == 2
+        for q, line in zip((0.0, 10.0), curves, strict=True):
+            sel = (rms == r) & (snr == q) & (converged >= 0) & np.isfinite(bound)
+            assert line.get_label() == f"{q:g} dB ({int(sel.sum())} fits)"
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -615,7 +615,8 @@ class _UnitProgress:
 @click.option("--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
               help="override a configuration entry (repeatable), e.g. campaign.unit=4")
 @click.option("--png", type=click.Path(dir_okay=False), default=None,
-              help="also plot the validity map (NMSE against deviation rms)")
+              help="also plot the validity map (NMSE against deviation rms) or, for a "
+                   "fit campaign, the fits' errors against the Cramér–Rao bound")
 def campaign(config, out, overrides, png):
     """Run (or resume) a campaign into a resumable Zarr store and print its summary: a
     validity map (each method of [campaign] against the exact model over deviation rms,
@@ -641,7 +642,8 @@ def campaign(config, out, overrides, png):
     if png:
         from .. import plot
 
-        if "nmse_db" not in dataset:
-            raise Fail("--png draws a validity map; a fit campaign's figure is not drawn")
         _check_output(png, True)
-        plot.validity_map(dataset, path=png)
+        if "nmse_db" in dataset:
+            plot.validity_map(dataset, path=png)
+        else:
+            plot.fit_monte_carlo(dataset, path=png)
