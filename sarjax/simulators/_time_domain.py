@@ -29,7 +29,14 @@ scatterer at ``x' = x − r tan φ_d`` (φ_d > 0 looks forward), where the Doppl
 pattern is taken at the middle of the echo, ``t + τ_d/2``.
 
 The kernel is written for one pulse; :func:`_lift_over_pulses` maps it over pulses in
-chunks. With ``stop_and_go=True``, a broadside radar and static scatterers the broadside
+chunks. Per pulse the geometry, pattern and carrier phase of each scatterer are formed in
+float64; the chirp ``exp(−j b (r'_k − ρ)²)`` is not evaluated sample by sample but
+factored (:func:`pulse_blocks`): with the samples as blocks ``k = n_lo a + c`` it is a
+fixed per-sample factor times one phasor per (scatterer, block) and one per (scatterer,
+offset in a block), all from float64 phases, so that the sum over scatterers is a
+masked product of two small tables (a loop for a few scatterers, a complex matrix product
+for many). complex64 evaluates those phasors from phases reduced in float64, so its error
+is the rounding of the tables (≈ 1e-7 relative), not of a float32 range. With ``stop_and_go=True``, a broadside radar and static scatterers the broadside
 stop-and-go program runs unchanged (same bits); the general kernel gives the same values
 there up to rounding (every added term is an exact zero).
 """
@@ -37,6 +44,7 @@ there up to rounding (every added term is an exact zero).
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import ClassVar
 
 import equinox as eqx
@@ -45,13 +53,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._numerics.phasor import _sin_cos, unit_phasor
+from .._numerics.phasor import unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractExactSimulator, AbstractPlan, Cost
 
 _TWO_PI = 2 * jnp.pi
 NON_STOP_AND_GO_ITERATIONS = 3
+_LOOPED_SCATTERERS = 16  # scatterers (per chunk) up to which they are summed by a loop
 
 
 def _concrete(value):
@@ -187,48 +196,114 @@ def scatterer_phasors(radar, pulse, targets, stop_and_go=True):
     return offset, amplitude
 
 
-def pulse_echo(radar, pulse, targets, range_axis_offset, dtype, stop_and_go=True):
-    """Echo of one pulse from a set of scatterers: (range,) complex samples.
+def range_blocks(num_range):
+    """(n_hi, n_lo): the range samples k = n_lo·a + c as an (n_hi, n_lo) block array,
+    n_lo ≈ √num_range rounded up to a multiple of 8 (the tables of one scatterer hold
+    n_hi + n_lo phasors)."""
+    n_lo = max(8, 8 * math.ceil(math.sqrt(num_range) / 8))
+    return -(-num_range // n_lo), n_lo
+
+
+def sample_chirp(radar, num_range, dtype):
+    """(range,) ``Q_k = exp(−j b Δr² k²)``: the scatterer-independent factor of the chirp
+    at sample k (float64 phase, then ``dtype``)."""
+    k = jnp.arange(num_range, dtype=jnp.float64)
+    q = radar.chirp_rate * radar.range_spacing**2
+    return unit_phasor(-(q * k * k)).astype(dtype)
+
+
+def pulse_extent(radar, base, num_range):
+    """(first, last) int32 sample indices of each scatterer's pulse, ``|r'_k − ρ| < cτ/4``.
+
+    ``base = r'_0 − ρ`` [m] (float64); the decision is the float64 test
+    ``|base + k Δr| < cτ/4`` itself (the closed-form bound, corrected by one sample where
+    its rounding lands on the other side of an edge). Clipped to the window; an echo
+    outside it has ``first > last``.
+    """
+    dr, half = radar.range_spacing, radar.pulse_half_length
+
+    def inside(k):
+        return jnp.abs(base + k * dr) < half
+
+    f0 = jnp.floor((-half - base) / dr) + 1
+    first = jnp.where(inside(f0 - 1), f0 - 1, jnp.where(inside(f0), f0, f0 + 1))
+    l0 = jnp.ceil((half - base) / dr) - 1
+    last = jnp.where(inside(l0 + 1), l0 + 1, jnp.where(inside(l0), l0, l0 - 1))
+    first = jnp.clip(first, 0, num_range).astype(jnp.int32)
+    last = jnp.clip(last, -1, num_range - 1).astype(jnp.int32)
+    return first, last
+
+
+def pulse_blocks(radar, pulse, targets, near_range, blocks, dtype, stop_and_go=True):
+    """Echo of one pulse from a set of scatterers, without the sample factor ``Q_k``:
+    an (n_hi, n_lo) block array, sample k = n_lo·a + c (see :func:`range_blocks`).
+
+    With ``β = r'_0 − ρ`` the chirp phase at sample k is
+    ``b (β + k Δr)² = b β² + 2 b β Δr k + b Δr² k²``. The last term is ``Q_k``
+    (:func:`sample_chirp`); the first two factor over the blocks,
+    ``γ W² e^{−j4πρ/λ} e^{−j(b β² + 2bβΔr n_lo a)} · e^{−j 2bβΔr c}``: per scatterer
+    n_hi + n_lo phasors from float64 phases instead of one per sample. The pulse's
+    rect over k is the sum of three products of a mask over a and a mask over c
+    (the blocks strictly inside, the first block, the last block), so that the sum over
+    scatterers is one complex matrix product of (3 N_P, n_hi) by (3 N_P, n_lo).
 
     Args:
         radar: the :class:`~sarjax.Radar`.
         pulse: ``(x', Δy, Δz, δ_az)`` scalars.
         targets: ``(x, r, h, γ, v_r, v_a)`` (scatterer,) arrays (or ``(x, r, h, γ)``, see
             :func:`scatterer_phasors`).
-        range_axis_offset: ``(near_range, r'_k − near_range)``: a scalar [m] and a (range,)
-            array [m] in the kernel's real dtype.
-        dtype: complex dtype of the samples (complex64 or complex128).
+        near_range: r'_0 [m].
+        blocks: ``(n_hi, n_lo)``.
+        dtype: complex dtype of the tables and the product (complex64 or complex128).
         stop_and_go: see :func:`echo_range_offset`.
     """
-    near_range, sample_offsets = range_axis_offset
-    real = jnp.finfo(dtype).dtype
+    n_hi, n_lo = blocks
     offset, amplitude = scatterer_phasors(radar, pulse, targets, stop_and_go)
-    # r' − ρ = (near − r − (ρ − r)) + (r'_k − near); the first term in float64.
-    base64 = near_range - targets[1] - offset
-    base = base64.astype(real)
-    delta = base[:, None] + sample_offsets[None, :]  # (scatterer, range)
-    half = radar.pulse_half_length.astype(real)
-    b = radar.chirp_rate.astype(real)
-    phase = b * delta * delta
-    if real == jnp.float64:
-        inside = jnp.abs(delta) < half
-    else:
-        # the pulse extent is decided in float64: a float32 r' − ρ within ~1e-4 m of an
-        # edge could fall on the wrong side and put a full-amplitude error on that sample
-        dr = radar.range_spacing
-        first = jnp.floor((-radar.pulse_half_length - base64) / dr) + 1  # |r' − ρ| < cτ/4
-        last = jnp.ceil((radar.pulse_half_length - base64) / dr) - 1
-        k = jnp.arange(sample_offsets.shape[0], dtype=jnp.float64)
-        inside = (k[None, :] >= first[:, None]) & (k[None, :] <= last[:, None])
-    # sin/cos from multiply-adds (sarjax._numerics.phasor; XLA's libm calls cost ~20 ns each on
-    # CPU), masked to the pulse
-    sin_phase, cos_phase = _sin_cos(phase)
-    chirp = jax.lax.complex(jnp.where(inside, cos_phase, 0.0),
-                            jnp.where(inside, -sin_phase, 0.0)).astype(dtype)
-    weights = amplitude.astype(dtype)
-    if weights.shape[0] <= 3:
-        return jnp.sum(weights[:, None] * chirp, axis=0)
-    return weights @ chirp  # a matrix–vector product: XLA's masked sum is slow for 4–32
+    base = near_range - targets[1] - offset  # β = r'_0 − ρ [m], float64
+    first, last = pulse_extent(radar, base, n_hi * n_lo)
+    b, dr = radar.chirp_rate, radar.range_spacing
+    slope = 2 * b * dr * base  # [rad / sample]
+    # both tables from one evaluation of float64 phases
+    a = jnp.arange(n_hi)[None, :]
+    c = jnp.arange(n_lo)[None, :]
+    phases = jnp.concatenate([
+        (b * base * base)[:, None] + slope[:, None] * (n_lo * a.astype(jnp.float64)),
+        slope[:, None] * c.astype(jnp.float64),
+    ], axis=1)
+    real = jnp.finfo(dtype).dtype
+    if real != jnp.float64:
+        # reduced to [−π, π] in float64, then the phasor in the kernel's precision
+        phases = phases - _TWO_PI * jnp.round(phases / _TWO_PI)
+    tables = unit_phasor(-phases.astype(real))
+    outer = amplitude[:, None].astype(dtype) * tables[:, :n_hi]
+    inner = tables[:, n_hi:]
+    if outer.shape[0] <= _LOOPED_SCATTERERS:
+        # a few scatterers: a loop over them, each step one fused pass of masked
+        # multiply-adds over the blocks (a batched matrix product of this size costs 2–5×
+        # more on the CPU); the loop's operands keep the tables from being recomputed
+        # inside that pass
+        k = n_lo * a.T + c  # (n_hi, n_lo) sample index
+
+        def add(i, out):
+            inside = (k >= first[i]) & (k <= last[i])
+            return out + jnp.where(inside, outer[i][:, None] * inner[i][None, :], 0)
+
+        return jax.lax.fori_loop(0, outer.shape[0], add, jnp.zeros((n_hi, n_lo), dtype))
+    a_first, c_first = (first // n_lo)[:, None], (first % n_lo)[:, None]
+    a_last, c_last = (last // n_lo)[:, None], (last % n_lo)[:, None]
+    valid = first[:, None] <= last[:, None]
+    spans = a_last > a_first
+    left = jnp.concatenate([
+        jnp.where((a > a_first) & (a < a_last) & valid, outer, 0),  # whole blocks
+        jnp.where((a == a_first) & valid, outer, 0),  # the first block (and the last)
+        jnp.where((a == a_last) & spans & valid, outer, 0),  # the last block
+    ])
+    right = jnp.concatenate([
+        inner,
+        jnp.where((c >= c_first) & ((c <= c_last) | spans), inner, 0),
+        jnp.where(c <= c_last, inner, 0),
+    ])
+    return jax.lax.dot_general(left, right, (((0,), (0,)), ((), ())))
 
 
 def _chunked(targets, chunk):
@@ -297,15 +372,26 @@ class TimeDomain(AbstractExactSimulator):
         return TimeDomainPlan(needs_general_kernel(radar, scene, self.stop_and_go))
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
-        """Per pulse chunk a (pulses, scatterers, range) complex chirp table (its real
-        delay and phase fused into it; XLA holds ≈ 1 table, counted twice), the padded
-        scatterer arrays and the accumulators."""
+        """Per pulse chunk the per-scatterer tables of :func:`pulse_blocks` (float64
+        phases, the phasors and the three masked copies of each), the scatterers'
+        geometry, the block accumulators and the pulses' samples; the padded scatterer
+        arrays."""
         n_r, n_s = acquisition.num_range, scene.num_scatterers
         pulse, scat = self.chunks(acquisition.num_pulses, n_r, n_s, dtype)
         item = np.dtype(dtype).itemsize
-        table = pulse * scat * n_r * item
         padded = (-(-n_s // scat)) * scat * 6 * 8
-        return int(2 * table + padded + 2 * pulse * n_r * item)
+        return int(pulse * self._per_pulse(n_r, scat, item) + padded)
+
+    @staticmethod
+    def _per_pulse(num_range, scat, item):
+        """Workspace bytes of one pulse with ``scat`` scatterers at a time."""
+        n_hi, n_lo = range_blocks(num_range)
+        looped = scat <= _LOOPED_SCATTERERS
+        copies = 1 if looped else 3
+        tables = scat * (n_hi + n_lo) * (8 + 16 + copies * item)
+        blocks = n_hi * n_lo * item if looped else 3 * n_hi * n_lo * item + 2 * num_range * item
+        # with a margin of a quarter over XLA's measured temporaries
+        return int(1.25 * (tables + scat * 24 * 8 + blocks))
 
     def smaller_chunks(self, plan, acquisition, scene, dtype):
         """Fewer pulses at a time first (the scatterer chunk sets the speed), then fewer
@@ -328,21 +414,19 @@ class TimeDomain(AbstractExactSimulator):
 
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
-        itemsize = jnp.dtype(dtype).itemsize
-        per_cell = 4 * itemsize  # delta, chirp, product, mask temporaries
-        # any scatterer chunk ≥ 48 costs the same CPU time, ≤ 32 about 4× more
-        # (benchmarks/RESULTS.md sweep); few pulses per chunk bound the memory
+        item = jnp.dtype(dtype).itemsize
+        # up to _LOOPED_SCATTERERS all at once (their loop); beyond, 512 at a time (the
+        # matrix product's inner dimension 3 × 512; benchmarks/RESULTS.md sweep)
         scat = self.scatterer_chunk or max(1, min(num_scatterers, 512))
-        per_pulse = scat * num_range * per_cell
+        per_pulse = self._per_pulse(num_range, scat, item)
         pulse = self.pulse_chunk or max(
-            1, min(num_pulses, self.memory_budget // per_pulse, max(1, 4096 // scat))
+            1, min(num_pulses, self.memory_budget // per_pulse, max(1, 8192 // scat))
         )
         return int(pulse), int(scat)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         if isinstance(scene, ReflectivityGrid):
             scene = scene.to_points()
-        real = jnp.finfo(dtype).dtype
         x_pulse = acquisition.pulse_azimuths(radar)
         horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
         pulses = (x_pulse, horizontal, vertical, pointing)
@@ -353,15 +437,18 @@ class TimeDomain(AbstractExactSimulator):
             acquisition.num_pulses, acquisition.num_range, scene.num_scatterers, dtype
         )
         chunked = _chunked(targets, scat_chunk)
-        sample_offsets = (jnp.arange(acquisition.num_range) * radar.range_spacing).astype(real)
-        axis = (acquisition.near_range, sample_offsets)
+        n_range = acquisition.num_range
+        blocks = range_blocks(n_range)
+        chirp = sample_chirp(radar, n_range, dtype)
+        near = acquisition.near_range
 
         def one_pulse(pulse):
             def accumulate(acc, chunk):
-                return acc + pulse_echo(radar, pulse, chunk, axis, dtype, self.stop_and_go), None
+                return acc + pulse_blocks(radar, pulse, chunk, near, blocks, dtype,
+                                          self.stop_and_go), None
 
-            init = jnp.zeros(acquisition.num_range, dtype)
+            init = jnp.zeros(blocks, dtype)
             out, _ = jax.lax.scan(accumulate, init, chunked)
-            return out
+            return out.reshape(-1)[:n_range] * chirp
 
         return _lift_over_pulses(one_pulse, pulses, pulse_chunk)
