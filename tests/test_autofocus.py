@@ -23,7 +23,7 @@ from sarjax.inverse import _sharpness
 NUM_PULSES = 384
 NUM_RANGE = 128
 NEAR_RANGE = 4750.0
-PROPERTY = settings(max_examples=3, deadline=None, derandomize=True, database=None)
+PROPERTY = settings(max_examples=2, deadline=None, derandomize=True, database=None)
 
 
 def _radar(**overrides):
@@ -73,42 +73,33 @@ def radar():
 
 
 def test_sharpness_gradient_matches_finite_differences(radar):
-    """∂(entropy)/∂(B-spline coefficient of Δy, Δz) by reverse mode equals central finite
-    differences (step 0.02 rad of line-of-sight phase; float64 data so the difference
-    quotient is not float32 rounding), at a point away from the optimum; tolerance 2 %
-    of the gradient's norm (the difference quotient's truncation error at this step)."""
+    """The reverse-mode derivative of each objective (entropy, contrast) w.r.t. the
+    B-spline coefficients of Δy, Δz, along three random directions, equals the central
+    finite difference (step 0.02 rad of line-of-sight phase per coefficient; float64 data
+    so the quotient is not float32 rounding), at a point away from the optimum; tolerance
+    2 % (the quotient's truncation error at this step is ≈ 0.1 %)."""
     raw = _noisy(radar, _scene(radar, 1), _motion(radar, 0.004, 1), 1)
     focuser = _sharpness.make_focuser(radar, raw, dtype=jnp.complex128)
     x = np.asarray(raw.azimuth)
-    spline = sj.inverse.BSpline(12).bind(x)
-    design = jnp.asarray(spline.design(jnp.asarray(x)))
+    design = jnp.asarray(sj.inverse.BSpline(12).bind(x).design(jnp.asarray(x)))
     k0 = float(radar.wavenumber)
-
-    def loss(theta):
-        phase = focuser.line_of_sight_phase(design @ theta[:12] / k0, design @ theta[12:] / k0)
-        return _sharpness.entropy(focuser.image(phase), focuser.energy)
-
     rng = np.random.default_rng(0)
     theta = jnp.asarray(rng.normal(scale=0.5, size=24))
-    grad = np.asarray(jax.jit(jax.grad(loss))(theta))
-    step = 0.02
-    fd = np.empty(24)
-    fn = jax.jit(loss)
-    for i in range(24):
-        e = np.zeros(24)
-        e[i] = step
-        fd[i] = (float(fn(theta + e)) - float(fn(theta - e))) / (2 * step)
-    assert np.linalg.norm(grad - fd) <= 0.02 * np.linalg.norm(grad)
-    # the contrast objective too (one direction)
-    def loss_c(theta):
-        phase = focuser.line_of_sight_phase(design @ theta[:12] / k0, design @ theta[12:] / k0)
-        return _sharpness.sharpness_loss(focuser.image(phase), focuser.energy, "contrast")
+    directions = rng.normal(size=(3, 24))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    for objective in _sharpness.OBJECTIVES:
+        def loss(theta, objective=objective):
+            phase = focuser.line_of_sight_phase(design @ theta[:12] / k0,
+                                                design @ theta[12:] / k0)
+            return _sharpness.sharpness_loss(focuser.image(phase), focuser.energy, objective)
 
-    g = np.asarray(jax.grad(loss_c)(theta))
-    e = np.zeros(24)
-    e[3] = step
-    fd3 = (float(loss_c(theta + e)) - float(loss_c(theta - e))) / (2 * step)
-    assert abs(g[3] - fd3) <= 0.02 * np.abs(g).max()
+        value_and_grad = jax.jit(jax.value_and_grad(loss))
+        grad = np.asarray(value_and_grad(theta)[1])
+        step = 0.02
+        for v in directions:
+            fd = (float(value_and_grad(theta + step * v)[0])
+                  - float(value_and_grad(theta - step * v)[0])) / (2 * step)
+            assert grad @ v == pytest.approx(fd, rel=0.02, abs=0.02 * np.linalg.norm(grad))
 
 
 def test_energy_is_independent_of_the_motion(radar):

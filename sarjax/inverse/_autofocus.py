@@ -26,6 +26,7 @@ import functools
 import time
 import warnings
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -211,7 +212,7 @@ def _check(radar, raw, objective, windows, max_steps):
 
 
 def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
-              objective: str = "entropy", windows=(48.0, 24.0, 12.0, 6.0, 3.0),
+              objective: str = "entropy", windows=(48.0, 24.0, 12.0, 8.0, 6.0, 4.0, 4.0, 4.0),
               max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 60,
               estimate_pointing: bool = True) -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
@@ -271,20 +272,23 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     image = _pga.jax_image(focuser, phase)
     value = float(_sharpness_value(image, focuser.energy, objective))
     log.append(("start", time.perf_counter() - t0, value))
+    previous_half = x.size
     for i, half_m in enumerate(windows):
-        half = max(int(round(half_m / spacing)), 2)
-        rows, cols = _pga.select_targets(np.abs(np.asarray(image)) ** 2, x.size,
-                                         segment=segment, max_targets=max_targets,
-                                         min_ratio=min_ratio, exclusion=half)
+        half = min(max(int(round(half_m / spacing)), 2), previous_half)
+        power = np.abs(np.asarray(image)) ** 2
+        rows, cols = _pga.select_targets(power, x.size, segment=segment,
+                                         max_targets=max_targets, min_ratio=min_ratio,
+                                         exclusion=half)
         if rows.size < 3:
             warnings.warn(f"autofocus: {rows.size} dominant scatterers (peak ≥ {min_ratio:g}× "
                           f"the range bin's median) in iteration {i}: the phase-gradient "
                           "stage stops; the estimate may be poor", AutofocusWarning,
                           stacklevel=2)
             break
+        half = previous_half = _pga.blur_half_width(power, rows, cols, half)
         z = np.asarray(_pga.target_products(focuser, phase, jnp.asarray(rows),
                                             jnp.asarray(cols), jnp.asarray(half)))
-        dy_c, dz_c = _pga.motion_increment(z, rows, focuser, design_y)
+        dy_c, dz_c = _pga.motion_increment(z, rows, focuser, design_y, current=(c_y, c_z))
         trial_phase = _los_phase(focuser, jnp.asarray(design_y @ (c_y + dy_c)),
                                  jnp.asarray(design_z @ (c_z + dz_c)))
         trial = _pga.jax_image(focuser, trial_phase)
@@ -295,7 +299,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         c_y, c_z, phase, image, value = c_y + dy_c, c_z + dz_c, trial_phase, trial, trial_value
         cov = np.sum(np.abs(z), axis=0)
         coverage = np.concatenate([[cov[0]], 0.5 * (cov[1:] + cov[:-1]), [cov[-1]]])
-        log.append((f"gradients {i}", time.perf_counter() - t0, value))
+        log.append((f"gradients {i} (±{half} columns)", time.perf_counter() - t0, value))
     timings["gradients"] = time.perf_counter() - t0
 
     # ---- 2. sharpness ---------------------------------------------------------------------
@@ -384,8 +388,33 @@ def _sharpen(focuser, design_y, design_z, c_y, c_z, objective, max_steps):
 
 
 def _pointing(radar, focuser, dy, dz, spline, x):
-    """δ_az(x') [rad] from the Doppler centroid of the compensated data (placeholder: 0)."""
-    return np.zeros(x.size)
+    """δ_az(x') [rad] from the Doppler centroid of the motion-compensated data.
+
+    A pointing error δ_az moves the beam centre to x' − r δ_az (physics.md §6), i.e. the
+    Doppler centroid to ``f_dc = −2v δ_az/λ``. Per pulse, the average cross-correlation
+    of adjacent compensated pulses over all kept range bins,
+    ``c(p) = Σ_r s̃(x'_{p+1}, r) s̃*(x'_p, r)``, has the phase ``2π f_dc/PRF`` (Madsen
+    1989); it is fitted by the B-spline ``spline`` (weighted by |c|) and its mean removed.
+    The estimate assumes the backscatter varies slowly across the footprint: an edge of the
+    clutter inside the beam biases it.
+    """
+    correlation = np.asarray(_adjacent_correlation(focuser, jnp.asarray(dy), jnp.asarray(dz)))
+    f_dc = np.angle(correlation) * float(radar.prf) / (2 * np.pi)  # (pulse − 1,)
+    pointing = -f_dc * float(radar.wavelength) / (2 * float(radar.velocity))
+    mid = 0.5 * (x[1:] + x[:-1])
+    design = np.asarray(spline.design(jnp.asarray(mid)))
+    w = np.sqrt(np.abs(correlation))
+    coef = np.linalg.lstsq(design * w[:, None], pointing * w, rcond=None)[0]
+    profile = np.asarray(spline.design(jnp.asarray(x))) @ coef
+    return profile - profile.mean()
+
+
+@eqx.filter_jit
+def _adjacent_correlation(focuser, dy, dz):
+    phase = focuser.line_of_sight_phase(dy, dz)
+    n = focuser.num_pulses
+    data = focuser.compressed[:, :n] * jnp.exp(1j * phase).astype(focuser.compressed.dtype)
+    return jnp.sum(data[:, 1:] * jnp.conj(data[:, :-1]), axis=0)
 
 
 def image_metrics(image) -> dict:

@@ -36,16 +36,17 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._sharpness import AzimuthFocuser
+from ._sharpness import AzimuthFocuser, entropy
 
 
 def select_targets(power, num_pulses: int, *, segment: int, max_targets: int,
-                   min_ratio: float, exclusion: int):
+                   min_ratio: float, exclusion: int, dynamic_range_db: float = 15.0):
     """Dominant scatterers of an image (NumPy).
 
     Each range bin is cut into azimuth segments of ``segment`` columns; the peak of each
     segment is a candidate, scored by its power over the bin's median power. Candidates
-    scoring below ``min_ratio`` are dropped; the rest are taken strongest first, skipping
+    scoring below ``min_ratio`` or with a peak more than ``dynamic_range_db`` below the
+    strongest one are dropped; the rest are taken strongest first, skipping
     one within 2 range bins and ``exclusion`` columns of a stronger one (its range
     sidelobes), up to ``max_targets``.
 
@@ -63,7 +64,8 @@ def select_targets(power, num_pulses: int, *, segment: int, max_targets: int,
     peak = np.take_along_axis(blocks, arg[..., None], axis=-1)[..., 0]
     median = np.median(power[:, :num_pulses], axis=1, keepdims=True)
     score = peak / np.maximum(median, 1e-300)
-    rows, segs = np.nonzero(score >= min_ratio)
+    rows, segs = np.nonzero((score >= min_ratio)
+                            & (peak >= peak.max() * 10 ** (-dynamic_range_db / 10)))
     cols = segs * segment + arg[rows, segs]
     order = np.argsort(-peak[rows, segs], kind="stable")
     chosen_r, chosen_c = [], []
@@ -78,6 +80,21 @@ def select_targets(power, num_pulses: int, *, segment: int, max_targets: int,
         if len(chosen_r) >= max_targets:
             break
     return np.asarray(chosen_r, int), np.asarray(chosen_c, int)
+
+
+def blur_half_width(power, rows, cols, cap: int, *, level_db: float = -10.0,
+                    factor: float = 1.5, floor: int = 4) -> int:
+    """Window half-width [columns] from the data (Wahl et al. 1994): the intensity lines of
+    the selected scatterers, centred on their peaks and normalised to them, are averaged;
+    the half-width is ``factor`` × the farthest offset where the average is above
+    ``level_db``, between ``floor`` and ``cap``."""
+    n_cols = power.shape[1]
+    offsets = np.arange(-cap, cap + 1)
+    lines = power[rows[:, None], (cols[:, None] + offsets[None, :]) % n_cols]
+    mean = np.mean(lines / lines[:, cap:cap + 1], axis=0)
+    above = np.flatnonzero(mean >= 10 ** (level_db / 10))
+    width = int(np.max(np.abs(offsets[above]))) if above.size else cap
+    return int(np.clip(round(factor * width), floor, cap))
 
 
 @eqx.filter_jit
@@ -132,15 +149,22 @@ def integrate(gradient, coverage, *, min_fraction: float = 1e-3):
     return phase - phase.mean()
 
 
-def motion_increment(products, rows, focuser: AzimuthFocuser, design, *,
-                     iterations: int = 4, ridge: float = 1e-3):
+def motion_increment(products, rows, focuser: AzimuthFocuser, design, *, current=None,
+                     iterations: int = 4, ridge: float = 1e-6,
+                     cross_ridge: float = 1e-3):
     """Range-dependent fit of the products: B-spline increments of Δy, Δz [m].
 
-    Solves ``arg z_k(p) − b_k = −k₀ [−sin ϑ_k ΔB(p) c_y + cos ϑ_k ΔB(p) c_z]`` (ΔB the
-    pulse-to-pulse difference of the (pulse, basis) ``design``) for (c_y, c_z) by weighted
-    linear least squares (weights |z_k(p)|), alternating with the slopes b_k. The
-    constant of Δy and Δz drops out of the differences; a ridge ``ridge × trace/n`` keeps
-    it (and any unilluminated span) at the smallest norm.
+    With ϑ₀ the look angle at the mid kept range, the line-of-sight deviation is written
+    ``δr_xr(ϑ) = a cos(ϑ − ϑ₀) − b sin(ϑ − ϑ₀)``: ``a = −Δy sin ϑ₀ + Δz cos ϑ₀`` the
+    deviation along the mid-swath line of sight, ``b = Δy cos ϑ₀ + Δz sin ϑ₀`` across it,
+    seen only through the swath's look-angle spread. Solves
+    ``arg z_k(p) − s_k = −k₀ Δ[δr_xr](p, ϑ_k)`` (Δ the pulse-to-pulse difference, a and b
+    B-splines of ``design``) for their coefficients by weighted linear least squares
+    (weights |z_k(p)|), alternating with each scatterer's slope s_k. Ridges of
+    ``ridge`` (on a) and ``cross_ridge`` (on b) × trace/n hold the unobserved directions
+    (the constants, spans no scatterer covers, b where one look angle dominates) near zero:
+    the ridge acts on the total coefficients (``current`` (c_y, c_z) plus the increment),
+    so that iterating converges to the regularised solution instead of creeping to it.
 
     Returns:
         (c_y, c_z) coefficient increments, each (basis,).
@@ -149,36 +173,52 @@ def motion_increment(products, rows, focuser: AzimuthFocuser, design, *,
     r = np.asarray(focuser.range)[rows]
     height = float(focuser.radar.height)
     k0 = float(focuser.radar.wavenumber)
-    cos_look = height / r
-    sin_look = np.sqrt(1 - cos_look**2)
+    look = np.arccos(np.clip(height / r, -1.0, 1.0))
+    ranges = np.asarray(focuser.range)
+    look0 = float(np.arccos(height / ranges[ranges.size // 2]))
+    along = np.cos(look - look0)
+    across = -np.sin(look - look0)
     diff = np.diff(np.asarray(design), axis=0)  # (pulse − 1, basis)
     weight = np.abs(z)
     keep = weight >= 1e-3 * weight.max(axis=1, keepdims=True)
     k_idx, p_idx = np.nonzero(keep)
     w = np.sqrt(weight[k_idx, p_idx])
-    a = np.concatenate([k0 * sin_look[k_idx, None] * diff[p_idx],
-                        -k0 * cos_look[k_idx, None] * diff[p_idx]], axis=1)
+    # products carry exp(−j k₀ Δδr): the measured gradient is −k₀ Δδr
+    a = -k0 * np.concatenate([along[k_idx, None] * diff[p_idx],
+                              across[k_idx, None] * diff[p_idx]], axis=1)
     aw = a * w[:, None]
     normal = aw.T @ aw
-    normal += ridge * np.trace(normal) / normal.shape[0] * np.eye(normal.shape[0])
+    n = diff.shape[1]
+    scale = np.trace(normal) / normal.shape[0]
+    normal += np.diag(scale * np.r_[np.full(n, ridge), np.full(n, cross_ridge)])
+    penalty = scale * np.r_[np.full(n, ridge), np.full(n, cross_ridge)]
+    if current is None:
+        held = np.zeros(2 * n)
+    else:
+        cy0, cz0 = (np.asarray(c, float) for c in current)
+        held = np.r_[-cy0 * np.sin(look0) + cz0 * np.cos(look0),
+                     cy0 * np.cos(look0) + cz0 * np.sin(look0)]
     slope = np.zeros(z.shape[0])
     coef = np.zeros(a.shape[1])
     for _ in range(iterations):
         phase = np.angle(z[k_idx, p_idx] * np.exp(-1j * slope[k_idx]))
-        coef = np.linalg.solve(normal, aw.T @ (w * phase))
-        model = a @ coef
-        resid = z[k_idx, p_idx] * np.exp(-1j * model)
+        coef = np.linalg.solve(normal, aw.T @ (w * phase) - penalty * held)
+        resid = z[k_idx, p_idx] * np.exp(-1j * (a @ coef))
         sums = np.zeros(z.shape[0], complex)
         np.add.at(sums, k_idx, resid)
         slope = np.angle(sums)
-    n = diff.shape[1]
-    return coef[:n], coef[n:]
+    c_a, c_b = coef[:n], coef[n:]
+    # (a, b) → (Δy, Δz): Δy = −a sin ϑ₀ + b cos ϑ₀, Δz = a cos ϑ₀ + b sin ϑ₀
+    c_y = -c_a * np.sin(look0) + c_b * np.cos(look0)
+    c_z = c_a * np.cos(look0) + c_b * np.sin(look0)
+    return c_y, c_z
 
 
 def phase_gradient_autofocus(focuser: AzimuthFocuser, *, windows, segment: int,
                              max_targets: int = 64, min_ratio: float = 30.0,
                              initial=None, log=None):
-    """Stripmap PGA: one phase history φ(x') [rad] for all ranges (module docstring).
+    """Stripmap PGA: one phase history φ(x') [rad] for all ranges (module docstring). An
+    iteration whose update does not lower the image entropy is not taken.
 
     Args:
         focuser: :class:`AzimuthFocuser` of the data.
@@ -196,24 +236,47 @@ def phase_gradient_autofocus(focuser: AzimuthFocuser, *, windows, segment: int,
     n = focuser.num_pulses
     phase = np.zeros(n) if initial is None else np.asarray(initial, float).copy()
     coverage = np.zeros(n)
+    previous = n
+    value = None
     for i, half in enumerate(windows):
         t0 = time.perf_counter()
         image = focuser.image(jnp.asarray(phase)[None, :])
-        rows, cols = select_targets(np.abs(np.asarray(image)) ** 2, n, segment=segment,
+        power = np.abs(np.asarray(image)) ** 2
+        rows, cols = select_targets(power, n, segment=segment,
                                     max_targets=max_targets, min_ratio=min_ratio,
                                     exclusion=int(half))
         if rows.size == 0:
             break
+        half = blur_half_width(power, rows, cols, min(int(half), previous))
+        previous = half
         tiled = jnp.broadcast_to(jnp.asarray(phase)[None, :], (focuser.range.shape[0], n))
         z = target_products(focuser, tiled, jnp.asarray(rows), jnp.asarray(cols),
                             jnp.asarray(half))
         gradient, _, cov = common_gradient(np.asarray(z))
         # the products carry exp(−jφ): the residual error is −∫Δφ
-        phase = phase - integrate(gradient, cov)
+        trial = phase - integrate(gradient, cov)
+        trial_value = image_entropy_of(focuser, trial)
+        if value is None:
+            value = image_entropy_of(focuser, phase)
+        if trial_value >= value:  # a step that does not sharpen the image is not taken
+            if log is not None:
+                log.append((f"pga {i} (rejected)", time.perf_counter() - t0, int(rows.size)))
+            continue
+        phase, value = trial, trial_value
         coverage = np.concatenate([[cov[0]], 0.5 * (cov[1:] + cov[:-1]), [cov[-1]]])
         if log is not None:
             log.append((f"pga {i}", time.perf_counter() - t0, int(rows.size)))
     return phase, coverage
+
+
+def image_entropy_of(focuser: AzimuthFocuser, phase) -> float:
+    """Entropy of the image after removing the (pulse,) history ``phase`` [rad]."""
+    return float(_entropy(focuser, jnp.asarray(phase)[None, :]))
+
+
+@eqx.filter_jit
+def _entropy(focuser, phase):
+    return entropy(focuser.image(phase), focuser.energy)
 
 
 def image_power(focuser: AzimuthFocuser, phase):
