@@ -1,12 +1,20 @@
 """The persistent compilation cache: compiled programs kept on disk between processes.
 
-A Fourier-domain method's first call compiles for seconds (the engine's block body, the
-budget checks); with the cache, a later process running the same shapes loads the
-programs instead. The ``sarjax`` command turns it on for every run; in Python it is an
-opt-in, :func:`enable_compilation_cache`. JAX writes each entry under a key of the
-program, its compile options and the jax/jaxlib versions, to a temporary name renamed
-into place, so processes running at once share one folder safely, and an upgrade of jax
-never loads a stale program.
+A Fourier-domain method's first call traces and compiles for seconds (the engine's block
+body, the budget checks); with the cache, a later process running the same call loads
+the programs instead. The ``sarjax`` command turns it on for every run; in Python it is
+an opt-in, :func:`enable_compilation_cache`. Two kinds of entry share the folder:
+
+* XLA's entries (``jit_<name>-<hash>-cache``), every program jax compiles: JAX keys each
+  on the program, its compile options and the jax/jaxlib versions and writes it to a
+  temporary name renamed into place.
+* ``programs/``: the simulation call itself, traced, compiled and serialised
+  (:mod:`sarjax._exported`), so a later process skips its tracing too; keyed on
+  everything static (method, options, plan, shapes, dtypes, devices, versions, the
+  sarjax source), written the same way.
+
+Processes running at once therefore share one folder safely, and an upgrade never loads
+a stale program.
 """
 
 from __future__ import annotations
@@ -16,10 +24,13 @@ from pathlib import Path
 
 import jax
 
+from . import _exported
+
 ENV_DIR = "SARJAX_CACHE_DIR"  # where; "off" turns the command's cache off
-# programs that compile faster than this are not worth a disk entry (most budget checks
-# compile in 0.1-0.3 s, the engine's block bodies in 1-3 s)
-MIN_COMPILE_SECONDS = 0.1
+PROGRAMS = "programs"  # the sub-folder of the serialised simulation programs
+# every program gets an entry: the 30-40 small eager ones (input conversion, budget
+# checks) compile in 5-80 ms each and together cost 0.3-0.6 s a run, more than loading
+MIN_COMPILE_SECONDS = 0.0
 
 
 def default_cache_dir() -> Path:
@@ -36,13 +47,21 @@ def enable_compilation_cache(path=None) -> Path | None:
     processes; call before the first simulation. A folder already chosen for JAX (the
     ``JAX_COMPILATION_CACHE_DIR`` environment variable, or ``jax.config``) is kept.
 
+    Covers every program jax compiles (XLA's cache) and, in the sub-folder ``programs``,
+    the traced and compiled program of each :func:`sarjax.simulate` call, so that a later
+    process with the same call skips tracing as well (:mod:`sarjax._exported`: the key,
+    the files). The input checks and validity warnings still run on every call.
+
     Returns:
         The cache folder in use, or None when ``$SARJAX_CACHE_DIR`` is ``off``.
     """
+    off = path is None and os.environ.get(ENV_DIR, "").lower() == "off"
     current = jax.config.jax_compilation_cache_dir
     if current:
+        _exported.set_folder(None if off else Path(current) / PROGRAMS)
         return Path(current)
-    if path is None and os.environ.get(ENV_DIR, "").lower() == "off":
+    if off:
+        _exported.set_folder(None)
         return None
     folder = Path(path).expanduser() if path is not None else default_cache_dir()
     try:
@@ -52,4 +71,5 @@ def enable_compilation_cache(path=None) -> Path | None:
                          f"set {ENV_DIR} to another folder, or to 'off'") from None
     jax.config.update("jax_compilation_cache_dir", str(folder))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_SECONDS)
+    _exported.set_folder(folder / PROGRAMS)
     return folder

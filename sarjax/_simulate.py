@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import _sharding, _validate
+from . import _exported, _sharding, _validate
 from ._data import Acquisition, RawData
 from ._memory_plan import MemoryPlan, memory_plan
 from .motion import Motion
@@ -220,11 +220,12 @@ def simulate(
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options,
     )
+    run = _exported.persistent(_run)  # loaded from disk when the cache is on
     if call.devices:
-        raw = _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+        raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
     else:
         with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
-            raw = _run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+            raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
     # outside the jit: the reason (costs, budgets) would otherwise key its cache
     return dataclasses.replace(raw, method_reason=reason) if reason else raw
 

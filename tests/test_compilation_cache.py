@@ -1,5 +1,7 @@
 """The command's persistent compilation cache: on by default in its own folder, off with
-``SARJAX_CACHE_DIR=off``, and a folder JAX was given already is kept. (Its speed-up is
+``SARJAX_CACHE_DIR=off``, and a folder JAX was given already is kept; the serialised
+simulation programs (``sarjax._exported``) give the uncached result bit for bit, ignore a
+damaged entry and survive two processes writing one entry at once. (Its speed-up is
 measured in ``benchmarks/bench_cli_cache.py``, not asserted here.)"""
 
 from __future__ import annotations
@@ -9,8 +11,12 @@ import subprocess
 import sys
 
 import jax
+import numpy as np
+import pytest
 
 import sarjax as sj
+from sarjax import _exported
+from sarjax._simulate import _run as _simulation_program
 
 CONFIG = """\
 preset = "airborne"
@@ -42,6 +48,8 @@ def test_the_command_keeps_its_programs_unless_turned_off(tmp_path):
     _simulate(tmp_path, str(cache), "a.nc")
     first = {name: (cache / name).stat().st_mtime_ns for name in os.listdir(cache)}
     assert any(name.startswith("jit__run-") for name in first), first  # the engine's body
+    programs_first = sorted(p.name for p in (cache / "programs").iterdir())
+    assert len(programs_first) == 1 and programs_first[0].startswith("run-"), programs_first
     # a second run loads them: each entry is kept as written, and no program of the first
     # run is compiled again under another key (a program whose compile time sits near
     # the 0.1 s threshold may be added now: that is timing, not a miss)
@@ -51,6 +59,8 @@ def test_the_command_keeps_its_programs_unless_turned_off(tmp_path):
     programs = {name.rsplit("-", 2)[0] for name in first}
     assert not [name for name in set(second) - set(first)
                 if name.rsplit("-", 2)[0] in programs]
+    # and the simulation program was loaded, not traced and written again
+    assert sorted(p.name for p in (cache / "programs").iterdir()) == programs_first
     _simulate(tmp_path, "off", "c.nc")
     assert not (tmp_path / "off").exists()
 
@@ -76,3 +86,141 @@ def test_a_folder_that_cannot_be_made_is_named(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                           text=True, timeout=120)
     assert "cannot be created" in done.stdout and "SARJAX_CACHE_DIR" in done.stdout, done
+
+
+# ---- the serialised simulation programs -----------------------------------------------
+
+NUM_PULSES, NUM_RANGE, NEAR_RANGE = 65, 64, 5044.07
+
+
+def _run_small(method="time_domain", radar=None, num_range=NUM_RANGE):
+    radar = sj.presets.airborne_xband() if radar is None else radar
+    scene = sj.PointTargets(azimuth=[0.0], range=[5140.0])
+    motion = sj.Motion(horizontal=1e-5 * np.sin(np.linspace(0.0, 3.0, NUM_PULSES)))
+    return sj.simulate(radar, scene, motion, method=method, num_pulses=NUM_PULSES,
+                       num_range=num_range, near_range=NEAR_RANGE)
+
+
+def _same(a, b):
+    """Bit for bit: every array of the result, and its method."""
+    assert a.method == b.method
+    for name in ("data", "azimuth", "range"):
+        x, y = np.asarray(getattr(a, name)), np.asarray(getattr(b, name))
+        assert x.dtype == y.dtype and x.shape == y.shape
+        assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), name
+
+
+@pytest.fixture
+def programs(tmp_path, monkeypatch):
+    """A fresh programs folder for this process (the state before is restored after);
+    ``programs.writes`` counts the entries written."""
+    kept = _exported.folder()
+    folder = _exported.set_folder(tmp_path / "programs")
+    writes = []
+    store = _exported._store
+    monkeypatch.setattr(_exported, "_store", lambda *a: (writes.append(a[1]), store(*a)))
+    yield folder, writes
+    _exported.set_folder(kept)
+
+
+def _uncached(**kwargs):
+    kept = _exported.folder()
+    _exported.set_folder(None)
+    try:
+        return _run_small(**kwargs)
+    finally:
+        _exported.set_folder(kept)
+
+
+def _fresh_process_call(**kwargs):
+    """A call as a new process makes it: nothing loaded in memory yet, and the key's
+    environment (the sarjax source) read afresh."""
+    _exported._loaded.clear()
+    _exported._environment.cache_clear()
+    return _run_small(**kwargs)
+
+
+@pytest.mark.parametrize("method", ["fourier_2d", "time_domain"])
+def test_a_loaded_program_gives_the_uncached_result_bit_for_bit(programs, method):
+    folder, writes = programs
+    plain = _uncached(method=method)
+    compiled = _run_small(method=method)  # traced, compiled and written
+    assert len(writes) == 1 and len(list(folder.iterdir())) == 1
+    loaded = _fresh_process_call(method=method)  # read from the file
+    assert len(writes) == 1
+    _same(plain, compiled)
+    _same(plain, loaded)
+
+
+def test_other_values_reuse_a_program_other_shapes_do_not(programs):
+    folder, writes = programs
+    _run_small()
+    radar = sj.presets.airborne_xband()
+    other = type(radar)(**{**{f: getattr(radar, f) for f in radar.__dataclass_fields__},
+                           "carrier_frequency": 9.3e9})
+    _same(_uncached(radar=other), _fresh_process_call(radar=other))
+    assert len(writes) == 1  # the same program, run on other values
+    _run_small(num_range=NUM_RANGE + 2)
+    assert len(writes) == 2 and len(set(writes)) == 2  # another shape: another program
+
+
+def test_a_damaged_entry_is_ignored_and_written_anew(programs):
+    folder, writes = programs
+    plain = _run_small()
+    (entry,) = folder.iterdir()
+    blob = entry.read_bytes()
+    key = entry.stem.split("-", 1)[1]
+    damaged = {
+        "truncated": blob[: len(blob) // 2],
+        "one bit of the executable": blob[:-4000] + bytes([blob[-4000] ^ 1]) + blob[-3999:],
+        "another key's entry": blob.replace(key.encode(), b"0" * len(key), 1),
+        "not an entry": b"\x00not a program\n" * 100,
+        "empty": b"",
+    }
+    for name, content in damaged.items():
+        entry.write_bytes(content)
+        assert _exported._load(_simulation_program, key, 0) is None, name
+    _same(plain, _fresh_process_call())  # compiled again: the same result
+    assert len(writes) == 2  # and written anew,
+    _same(plain, _fresh_process_call())
+    assert len(writes) == 2  # whole: the next process loads it
+
+
+def test_two_processes_writing_one_entry_leave_a_valid_one(programs, tmp_path):
+    """Both compile the same call and write its entry at about the same time."""
+    folder, writes = programs
+    env = {k: v for k, v in os.environ.items() if not k.startswith("JAX_COMPILATION_CACHE")}
+    env["SARJAX_CACHE_DIR"] = str(tmp_path)
+    code = ("import sys, warnings\n"
+            "import numpy as np\n"
+            "import jax\n"
+            "import sarjax as sj\n"
+            "jax.config.update('jax_numpy_rank_promotion', 'raise')  # as tests/conftest.py\n"
+            "sys.path.insert(0, sys.argv[2])\n"
+            "from test_compilation_cache import _run_small\n"
+            "sj.enable_compilation_cache()\n"
+            "np.save(sys.argv[1], np.asarray(_run_small().data))\n")
+    here = os.path.dirname(os.path.abspath(__file__))
+    children = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path / f"{i}.npy"), here],
+                                 env=env, stderr=subprocess.PIPE, text=True)
+                for i in range(2)]
+    for child in children:
+        _, err = child.communicate(timeout=300)
+        assert child.returncode == 0, err[-2000:]
+    entries = list(folder.iterdir())
+    assert len(entries) == 1 and entries[0].suffix == ".bin", entries  # no temporary left
+    loaded = _fresh_process_call()
+    assert not writes  # this process loaded the entry the two left
+    for i in range(2):
+        assert np.array_equal(np.load(tmp_path / f"{i}.npy"), np.asarray(loaded.data))
+
+
+def test_the_programs_are_off_with_the_cache(monkeypatch):
+    kept = _exported.folder()
+    monkeypatch.setenv("SARJAX_CACHE_DIR", "off")
+    try:
+        sj.enable_compilation_cache()  # XLA's folder of the suite stays as JAX was given it
+        assert _exported.folder() is None
+        assert _exported.persistent(_run_small) is _run_small
+    finally:
+        _exported.set_folder(kept)

@@ -7,6 +7,12 @@ file without ``--force``. Exit status 0 on success; on bad input one line
 ``sarjax: error: …`` on stderr and status 2 (1 for an unexpected internal error, also
 one line; ``SARJAX_TRACEBACK=1`` shows its traceback).
 
+Compiled programs are kept between runs in ``~/.cache/sarjax/jax``
+(``$XDG_CACHE_HOME`` respected; ``SARJAX_CACHE_DIR`` names another folder, ``off`` none):
+XLA's entries and, under ``programs/``, each simulation call traced and compiled, so a
+second run of a configuration skips both (:mod:`sarjax._compilation_cache`; the key and
+its safety under concurrent runs: the architecture page, "The compilation cache").
+
 The configuration files (TOML) of ``simulate`` and their keys: :mod:`sarjax.cli.config`.
 The verbs: :mod:`sarjax.cli.commands`.
 """
@@ -37,13 +43,22 @@ def main(argv=None) -> int:
         from .. import distributed
 
         distributed.initialize()
-    try:
-        from .._compilation_cache import enable_compilation_cache
+    from .. import _exported
+    from .._compilation_cache import enable_compilation_cache
 
-        # a later run of the same shapes loads its programs ($SARJAX_CACHE_DIR=off: none)
+    kept = _exported.folder()  # restored on return (main called from Python)
+    try:
+        # a later run of the same call loads its programs ($SARJAX_CACHE_DIR=off: none)
         enable_compilation_cache()
     except ValueError as err:
         print(f"sarjax: warning: {err}", file=sys.stderr)
+    try:
+        return _main(argv)
+    finally:
+        _exported.set_folder(kept)
+
+
+def _main(argv):
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning  # one line each, as errors are

@@ -130,7 +130,11 @@ def demo(out, pulses, force):
               help="override a configuration entry (repeatable), e.g. radar.num_pulses=512")
 @_force
 def simulate(config, out, overrides, force):
-    """Simulate raw data from a TOML configuration (see 'sarjax --help' of the module)."""
+    """Simulate raw data from a TOML configuration (see 'sarjax --help' of the module).
+
+    The compiled simulation is kept in ~/.cache/sarjax/jax (SARJAX_CACHE_DIR names
+    another folder, 'off' none): a later run of the same method and shapes loads it
+    instead of tracing and compiling; its checks and warnings run every time."""
     from .. import io
     from . import simulate_config  # the package's name (it can be replaced there)
 
