@@ -213,8 +213,9 @@ def _check(radar, raw, objective, windows, max_steps):
 
 def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
               objective: str = "entropy", windows=(48.0, 24.0, 12.0, 8.0, 6.0, 4.0, 4.0, 4.0),
-              max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 60,
-              estimate_pointing: bool = True) -> AutofocusResult:
+              max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 200,
+              estimate_pointing: bool = True, sharpness_region: str = "targets",
+              target_window: float = 16.0) -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
     Stages (module docstring): range-dependent phase gradients of the dominant scatterers
@@ -236,6 +237,11 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         max_targets: dominant scatterers used per iteration.
         min_ratio: a dominant scatterer's peak over its range bin's median power.
         max_steps: L-BFGS iterations of the sharpness stage (0 = skip it).
+        sharpness_region: ``"targets"`` (default): the objective of the image windows
+            (±``target_window`` m in azimuth, ±1 range bin) about the dominant scatterers;
+            ``"image"``: of the whole swath (measured to over-fit the speckle of clutter:
+            its entropy falls below the true track's while the error grows).
+        target_window: half-width of those windows [m].
         estimate_pointing: estimate δ_az (else ``motion.pointing`` is None).
 
     Returns:
@@ -246,6 +252,10 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     """
     t_start = time.perf_counter()
     _check(radar, raw, objective, windows, max_steps)
+    if sharpness_region not in ("targets", "image"):
+        raise ValueError(f"sharpness_region={sharpness_region!r}; choose 'targets' or 'image'")
+    if not target_window > 0:
+        raise ValueError(f"target_window={target_window!r} must be > 0 [m]")
     x = np.asarray(raw.azimuth, float)
     model = _default_model(radar, x) if model is None else model
     if not (isinstance(model, MotionModel) and isinstance(model.horizontal, BSpline)
@@ -305,8 +315,15 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     # ---- 2. sharpness ---------------------------------------------------------------------
     t0 = time.perf_counter()
     if max_steps > 0:
+        region = None
+        if sharpness_region == "targets":
+            power = np.abs(np.asarray(image)) ** 2
+            rows, cols = _pga.select_targets(power, x.size, segment=segment,
+                                             max_targets=max_targets, min_ratio=min_ratio,
+                                             exclusion=8)
+            region = (rows, cols, int(round(target_window / spacing)))
         c_y, c_z, value = _sharpen(focuser, design_y, design_z, c_y, c_z, objective,
-                                   max_steps)
+                                   max_steps, region)
         log.append(("sharpness", time.perf_counter() - t0, value))
     timings["sharpness"] = time.perf_counter() - t0
 
@@ -361,28 +378,51 @@ def _remove_trend(profile):
     return p - t * (t @ p) / (t @ t)
 
 
-def _sharpen(focuser, design_y, design_z, c_y, c_z, objective, max_steps):
-    """L-BFGS on the sharpness w.r.t. the B-spline coefficients (phase units)."""
+def _sharpen(focuser, design_y, design_z, c_y, c_z, objective, max_steps, region=None):
+    """L-BFGS on the sharpness w.r.t. the B-spline coefficients (phase units).
+
+    ``region``: None (the whole swath) or (rows, cols, half): the objective of the image
+    windows ±half columns about the dominant scatterers (rows ±1 range bin), normalised
+    by their own energy, so that the speckle between them does not drive the fit.
+    """
     scale = 1.0 / float(focuser.radar.wavenumber)  # one unit = 1 rad of LOS phase
     n = design_y.shape[1]
     by = jnp.asarray(design_y)
     bz = jnp.asarray(design_z)
+    if region is None:
+        index = None
+    else:
+        rows, cols, half = region
+        n_rows = int(focuser.range.shape[0])
+        band = np.clip(np.asarray(rows)[:, None] + np.arange(-1, 2)[None, :], 0, n_rows - 1)
+        n_fft = int(focuser.compressed.shape[-1])
+        columns = (np.repeat(np.asarray(cols), 3)[:, None]
+                   + np.arange(-half, half + 1)[None, :]) % n_fft
+        index = (jnp.asarray(band.ravel()), jnp.asarray(columns))
 
     def loss(theta, data):
-        foc, c0 = data
+        foc, c0, index = data
         c = c0 + theta * scale
-        phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:])
-        return sharpness_loss(foc.image(phase), foc.energy, objective)
+        if index is None:
+            phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:])
+            return sharpness_loss(foc.image(phase), foc.energy, objective)
+        band, columns = index
+        phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:], range_index=band)
+        image = foc.image(phase, range_index=band)
+        windows = jnp.take_along_axis(image, columns, axis=-1)
+        energy = jnp.sum(jnp.real(windows) ** 2 + jnp.imag(windows) ** 2)
+        return sharpness_loss(windows, energy, objective)
 
     fn = value_and_grad(loss)
     c0 = jnp.asarray(np.concatenate([c_y, c_z]))
 
     def fun(theta):
-        value, grad = fn(jnp.asarray(theta), (focuser, c0))
+        value, grad = fn(jnp.asarray(theta), (focuser, c0, index))
         return float(value), np.asarray(grad, float)
 
     res = scipy.optimize.minimize(fun, np.zeros(2 * n), jac=True, method="L-BFGS-B",
-                                  options=dict(maxiter=max_steps, maxcor=20))
+                                  options=dict(maxiter=max_steps, maxcor=20, ftol=1e-15,
+                                               gtol=1e-12))
     c = np.asarray(c0) + res.x * scale
     return c[:n], c[n:], float(res.fun)
 
@@ -472,7 +512,7 @@ def pga(radar, raw: RawData, *, windows=(48.0, 24.0, 12.0, 6.0, 3.0), max_target
 
 
 def sharpness_phase(radar, raw: RawData, *, num_basis: int | None = None,
-                    objective: str = "entropy", max_steps: int = 60,
+                    objective: str = "entropy", max_steps: int = 200,
                     initial: AutofocusResult | None = None) -> AutofocusResult:
     """Sharpness-only autofocus of one phase history φ(x') = B(x') c [rad] shared by all
     ranges (the second baseline): L-BFGS on the objective from ``initial``'s history (or
@@ -503,7 +543,8 @@ def sharpness_phase(radar, raw: RawData, *, num_basis: int | None = None,
         return float(value), np.asarray(grad, float)
 
     res = scipy.optimize.minimize(fun, c0, jac=True, method="L-BFGS-B",
-                                  options=dict(maxiter=max_steps, maxcor=20))
+                                  options=dict(maxiter=max_steps, maxcor=20, ftol=1e-15,
+                                               gtol=1e-12))
     phase = design @ res.x
     image = _phase_image(radar, raw, phase)
     return AutofocusResult(

@@ -22,7 +22,7 @@ below are normalised by a constant.
 Objectives (to minimise):
 
 * entropy ``S = −Σ p log p``, ``p = |I|²/E`` (Kragh & Kharbouch; Wang & Liu);
-* contrast ``−Σ |I|⁴ / E²`` (power-law sharpness, Fienup & Miller 2003, exponent 2).
+* contrast ``−log(Σ |I|⁴ / E²)`` (power-law sharpness, Fienup & Miller 2003, exponent 2).
 
 Speckle of fully developed, spatially white clutter is a circular Gaussian field: a phase
 error only permutes it into another such field, so neither objective sees defocus there.
@@ -160,11 +160,12 @@ def contrast(image, energy):
 
 
 def sharpness_loss(image, energy, objective: str):
-    """The quantity minimised: entropy, or minus the contrast."""
+    """The quantity minimised: the entropy, or minus the logarithm of the contrast (the
+    same optimum, on a scale the optimiser's tolerances suit)."""
     if objective == "entropy":
         return entropy(image, energy)
     if objective == "contrast":
-        return -contrast(image, energy)
+        return -jnp.log(contrast(image, energy))
     raise ValueError(f"objective={objective!r}; choose one of {OBJECTIVES}")
 
 
