@@ -103,6 +103,8 @@ def _call(fn, *args):
         return fn(*args)
     dynamic, static = eqx.partition(args, eqx.is_array)
     leaves, in_tree = jax.tree_util.tree_flatten(dynamic)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):  # inside jit, grad, vmap
+        return fn(*args)
     try:
         key = _key(fn, static, leaves, in_tree)
     except Unkeyable as err:

@@ -164,6 +164,17 @@ def test_other_values_reuse_a_program_other_shapes_do_not(programs):
     assert len(writes) == 2 and len(set(writes)) == 2  # another shape: another program
 
 
+def test_a_traced_call_takes_the_jit_path(programs):
+    """Inside a transformation (a fit's gradient, a user's jit) nothing is kept or loaded."""
+    folder, writes = programs
+    radar = sj.presets.airborne_xband()
+    traced = jax.jit(lambda r: _run_small(radar=r).data)(radar)
+    assert not writes and not folder.exists()
+    # the same program under an outer jit: equal up to XLA's fusion choices (rounding)
+    expected = np.asarray(_uncached(radar=radar).data)
+    np.testing.assert_allclose(traced, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+
 def test_a_damaged_entry_is_ignored_and_written_anew(programs):
     folder, writes = programs
     plain = _run_small()
