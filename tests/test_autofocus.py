@@ -163,3 +163,23 @@ def test_bad_inputs(radar):
     with pytest.raises(ValueError, match="detrend"):
         af.residual_phase_rms(radar, af.no_estimate(raw), sj.Motion(), [[4800, 4900]],
                               detrend="none")
+
+
+def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
+    """``sarjax autofocus raw.nc -o image.nc``: the file holds the estimated motion and the
+    image focused with it (ω-k, second-order motion compensation of Δy, Δz)."""
+    import sarjax.cli
+    from sarjax import io
+
+    raw = _noisy(radar, _scene(radar, 5), _motion(radar, 0.004, 5), 5)
+    io.save(tmp_path / "raw.nc", raw, radar=radar)
+    code = sarjax.cli.main(["autofocus", str(tmp_path / "raw.nc"), "-o",
+                            str(tmp_path / "image.nc"), "--max-steps", "5"])
+    assert code == 0, capsys.readouterr().err
+    stored = io.load(tmp_path / "image.nc")
+    motion = sj.Motion(horizontal=stored.motion.horizontal, vertical=stored.motion.vertical)
+    assert np.std(np.asarray(motion.horizontal)) > 0
+    direct = sj.focus(radar, raw, motion=motion)
+    np.testing.assert_allclose(np.asarray(stored.product.data), np.asarray(direct.data),
+                               rtol=1e-6, atol=1e-9 * float(np.abs(direct.data).max()))
+    assert stored.attrs["autofocus_method"] == "model"

@@ -15,7 +15,7 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
 @click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
-             "metrics, fit, check, config, export, plot, campaign.\n\n"
+             "autofocus, metrics, fit, check, config, export, plot, campaign.\n\n"
              "Run 'sarjax COMMAND --help' for the options of a command.")
 @click.version_option(package_name="sarjax", prog_name="sarjax",
                       message="%(prog)s %(version)s")
@@ -182,6 +182,29 @@ def focus(raw_file, out, method, moco, weighting, nominal_track, force):
                 attrs=attrs, overwrite=force)
         bar.update()
     click.echo(f"wrote {out}: image {image.shape[0]} × {image.shape[1]} ({method})")
+
+
+@cli.command(context_settings=_CONTEXT)
+@click.argument("raw_file", type=click.Path(dir_okay=False))
+@_out_option("output image file (NetCDF, .nc), focused with the estimated motion")
+@click.option("--objective", type=click.Choice(["entropy", "contrast"]), default="entropy",
+              show_default=True, help="image-sharpness objective")
+@click.option("--max-steps", type=click.IntRange(min=0), default=200, show_default=True,
+              help="L-BFGS iterations of the sharpness stage")
+@_force
+def autofocus(raw_file, out, objective, max_steps, force):
+    """Estimate Δy, Δz and the pointing error from a raw-data file of an unknown scene
+    (sarjax.inverse.autofocus) and write the refocused image with the estimated motion."""
+    from .. import io
+    from ..inverse import autofocus as autofocus_
+
+    _check_output(out, force)
+    run = _load(raw_file, "RawData")
+    result = autofocus_(run.radar, run.product, objective=objective, max_steps=max_steps)
+    io.save(out, result.image, radar=run.radar, motion=result.motion,
+            attrs={"source": str(raw_file), **result.attributes()}, overwrite=force)
+    click.echo(f"wrote {out}: image {result.image.shape[0]} × {result.image.shape[1]} "
+               f"(autofocus, {result.timings['total']:.1f} s)")
 
 
 def _focus_attributes(run, raw_file, method, moco, weighting, motion):

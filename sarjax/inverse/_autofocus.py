@@ -85,6 +85,17 @@ class AutofocusResult:
     fixed: tuple
     coverage: np.ndarray
 
+    def attributes(self) -> dict:
+        """Plain attributes of the estimate for a file: method, objective, stages, times."""
+        return {
+            "autofocus_method": self.method,
+            "autofocus_objective": self.objective or "",
+            "autofocus_fixed": ", ".join(self.fixed),
+            "autofocus_stages": "; ".join(f"{name} {value:.6g}"
+                                          for name, _, value in self.history),
+            "autofocus_seconds": float(self.timings.get("total", float("nan"))),
+        }
+
     def line_of_sight_phase(self, radar, ranges):
         """(range, pulse) two-way phase k₀ δr_xr(x', r) [rad] that the estimate removes at
         slant ranges ``ranges`` [m] (h = 0)."""
