@@ -51,6 +51,7 @@ SWEEP = [  # (pulse_chunk, scatterer_chunk)
     (32, 128),
     (16, 256),
     (8, 512),
+    (1, 1024),
     (1, 4096),
     (128, 32),
 ]
@@ -136,7 +137,7 @@ def run_case(name, radar, scene, motion, num_pulses, dtype_name, repeats, **chun
         first=first, first_minus_steady=first - wall, steady=wall, cpu=cpu,
         walls=walls, repeats=repeats,
         sp_per_s=evals / wall, sps_per_s=evals * NUM_RANGE / wall, sp_per_cpu_s=evals / cpu,
-        spread=max(walls) / min(walls),
+        spread=max(walls) / min(walls), data=np.asarray(data),
     )
     compile_s = row["aot_lower"] + row["aot_compile"] if aot else row["first_minus_steady"]
     print(
@@ -188,9 +189,9 @@ def table(rows):
         "| case | dtype | scatterers × pulses × samples | compile (AOT lower+compile) [s] "
         "| first − steady [s] | steady [s] | max/min wall | CPU/wall | repeats "
         "| scatterer·pulse / s | scatterer·pulse·sample / s | scatterer·pulse / CPU-s "
-        "| steady / FFT |"
+        "| steady / FFT | complex64 vs complex128: NMSE [dB], max \\|e\\| / max \\|ref\\| |"
     )
-    lines = [head, "|" + "---|" * 13]
+    lines = [head, "|" + "---|" * 14]
     for r in rows:
         aot = None if r["aot_lower"] is None else r["aot_lower"] + r["aot_compile"]
         lines.append(
@@ -198,7 +199,7 @@ def table(rows):
             f"| {fmt(aot, '.2f')} | {r['first_minus_steady']:.2f} | {r['steady']:.4f} "
             f"| {r['spread']:.2f} | {r['cpu'] / r['steady']:.2f} | {r['repeats']} "
             f"| {r['sp_per_s']:.3e} | {r['sps_per_s']:.3e} | {r['sp_per_cpu_s']:.3e} "
-            f"| {r['ratio_fft']:.3g} |"
+            f"| {r['ratio_fft']:.3g} | {r.get('error', '(reference)')} |"
         )
     return "\n".join(lines)
 
@@ -304,6 +305,11 @@ def main(argv=None):
         for dtype_name in DTYPES:
             rows.append(run_case(name, radar, scene, motion, num_pulses, dtype_name,
                                  repeats))
+    for ref, low in zip(rows[0::2], rows[1::2]):  # complex128, complex64 of each case
+        err = low["data"].astype(np.complex128) - ref["data"]
+        nmse = 10 * np.log10(np.sum(np.abs(err) ** 2) / np.sum(np.abs(ref["data"]) ** 2))
+        low["error"] = f"{nmse:.1f}, {np.max(np.abs(err)) / np.max(np.abs(ref['data'])):.1e}"
+        print(f"  {low['case']}: complex64 vs complex128 {low['error']}")
     fft_end = fft_baseline()
     print(f"FFT2 again at the end: {fft_end[0] * 1e3:.2f} ms (cpu {fft_end[1] * 1e3:.2f} ms)")
     fft_time = min(fft[0], fft_end[0])

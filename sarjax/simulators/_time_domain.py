@@ -60,7 +60,7 @@ from ._base import AbstractExactSimulator, AbstractPlan, Cost
 
 _TWO_PI = 2 * jnp.pi
 NON_STOP_AND_GO_ITERATIONS = 3
-_LOOPED_SCATTERERS = 16  # scatterers (per chunk) up to which they are summed by a loop
+_LOOPED_SCATTERERS = 32  # scatterers (per chunk) summed by a loop (16–48: same cost as the product)
 
 
 def _concrete(value):
@@ -390,8 +390,8 @@ class TimeDomain(AbstractExactSimulator):
         copies = 1 if looped else 3
         tables = scat * (n_hi + n_lo) * (8 + 16 + copies * item)
         blocks = n_hi * n_lo * item if looped else 3 * n_hi * n_lo * item + 2 * num_range * item
-        # with a margin of a quarter over XLA's measured temporaries
-        return int(1.25 * (tables + scat * 24 * 8 + blocks))
+        # with a margin of a half over XLA's measured temporaries
+        return int(1.5 * (tables + scat * 24 * 8 + blocks))
 
     def smaller_chunks(self, plan, acquisition, scene, dtype):
         """Fewer pulses at a time first (the scatterer chunk sets the speed), then fewer
@@ -406,21 +406,25 @@ class TimeDomain(AbstractExactSimulator):
             yield dataclasses.replace(self, pulse_chunk=1, scatterer_chunk=scat)
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
-        """≈ 15 M (complex128) / 40 M (complex64) scatterer·sample per second
-        (fused kernel, ../shared/spec/platform.md), compile ≈ 0.5 s."""
-        rate = 40e6 if np.dtype(dtype) == np.complex64 else 15e6
+        """≈ 200 M (complex128) / 400 M (complex64) scatterer·sample per second (the
+        factored chirp; benchmarks/RESULTS.md: 3 points and a 64 × 64 grid on the
+        1941 × 830 grid measured 240–460 M/s), compile ≈ 0.5 s."""
+        rate = 400e6 if np.dtype(dtype) == np.complex64 else 200e6
         work = acquisition.num_pulses * acquisition.num_range * scene.num_scatterers
         return Cost(compile=self.compile_time, steady=work / rate)
 
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
         item = jnp.dtype(dtype).itemsize
-        # up to _LOOPED_SCATTERERS all at once (their loop); beyond, 512 at a time (the
-        # matrix product's inner dimension 3 × 512; benchmarks/RESULTS.md sweep)
-        scat = self.scatterer_chunk or max(1, min(num_scatterers, 512))
+        # up to _LOOPED_SCATTERERS: all at once (their loop), many pulses together; beyond:
+        # one pulse at a time (an unbatched matrix product runs ~2× faster than a batched
+        # one on the CPU) and up to 4096 scatterers (benchmarks/RESULTS.md sweep)
+        looped = num_scatterers <= _LOOPED_SCATTERERS
+        scat = self.scatterer_chunk or max(1, min(num_scatterers, 4096))
         per_pulse = self._per_pulse(num_range, scat, item)
+        most = max(1, 8192 // scat) if looped else 1
         pulse = self.pulse_chunk or max(
-            1, min(num_pulses, self.memory_budget // per_pulse, max(1, 8192 // scat))
+            1, min(num_pulses, self.memory_budget // per_pulse, most)
         )
         return int(pulse), int(scat)
 
