@@ -1,4 +1,5 @@
-"""The ``sarjax`` command: demo, simulate, focus, metrics, fit, check, export, plot, campaign.
+"""The ``sarjax`` command: demo, simulate, focus, autofocus, metrics, fit, check, export, plot,
+campaign, launch.
 
 Every command takes ``--help``. Files are NetCDF-4 (:mod:`sarjax.io`): ``simulate`` writes
 raw data with every parameter of the run, ``focus`` an image carrying them on, so each

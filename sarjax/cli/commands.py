@@ -15,7 +15,7 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
 @click.group(context_settings=_CONTEXT, help="The ``sarjax`` command: demo, simulate, focus, "
-             "autofocus, metrics, fit, check, config, export, plot, campaign.\n\n"
+             "autofocus, metrics, fit, check, config, export, plot, campaign, launch.\n\n"
              "Run 'sarjax COMMAND --help' for the options of a command.")
 @click.version_option(package_name="sarjax", prog_name="sarjax",
                       message="%(prog)s %(version)s")
@@ -142,11 +142,26 @@ def simulate(config, out, overrides, force):
     _check_output(out, force)
     with _progress(2, "simulate") as bar:
         raw, radar, scene, motion, attrs = simulate_config(cfg)
+        main = _one_writer()
+        if main is not None:  # one of the processes of a launched run: all of it, here
+            from .. import distributed
+
+            raw = distributed.gather(raw)
         bar.update()
+        if main is False:  # process 0 writes the file
+            return
         io.save(out, raw, radar=radar, scene=scene, motion=motion, attrs=attrs,
                 overwrite=force)
         bar.update()
     click.echo(f"wrote {out}: raw data {raw.shape[0]} × {raw.shape[1]} ({raw.method})")
+
+
+def _one_writer():
+    """None in a one-process run; in a multi-process run (``sarjax launch``, ``srun``),
+    True in process 0 (which writes the outputs) and False in the others."""
+    import jax
+
+    return None if jax.process_count() == 1 else jax.process_index() == 0
 
 
 @cli.command(context_settings=_CONTEXT)
@@ -658,9 +673,7 @@ def campaign(config, out, overrides, png):
         ran = campaign_.run(spec, out, progress=progress)
     finally:
         progress.close()
-    import jax
-
-    if jax.process_index() != 0:  # one summary, from process 0 of a multi-process run
+    if _one_writer() is False:  # one summary, from process 0 of a multi-process run
         return
     dataset = campaign_.load(out)
     click.echo(f"{out}: {spec.num_scenarios} scenarios in {spec.num_units} units "
@@ -674,3 +687,28 @@ def campaign(config, out, overrides, png):
             plot.validity_map(dataset, path=png)
         else:
             plot.fit_monte_carlo(dataset, path=png)
+
+
+# ---- launch -----------------------------------------------------------------------------
+
+
+@cli.command(context_settings=dict(_CONTEXT, ignore_unknown_options=True))
+@click.option("-n", "--num-processes", type=click.IntRange(min=1), default=2,
+              show_default=True, help="local processes of the run")
+@click.option("--devices-per-process", type=click.IntRange(min=1), default=None,
+              help="forced CPU devices in each process (default: XLA's, one on a CPU)")
+@click.argument("command", nargs=-1, type=click.UNPROCESSED, required=True)
+def launch(num_processes, devices_per_process, command):
+    """Run another sarjax command as one multi-process JAX run on this machine:
+    'sarjax launch -n 2 -- campaign study.toml -o study.zarr'. Each process runs the
+    command (it joins the run through its environment, sarjax.distributed.initialize);
+    a campaign shares its units out over them; simulate runs on the devices of all of
+    them (process 0 writes the file).
+    Exits with the first non-zero status of the processes. On a cluster, start the
+    processes with the scheduler instead ('srun sarjax campaign ...')."""
+    from .. import distributed
+
+    status = distributed.launch(["-m", "sarjax.cli", *command], num_processes,
+                                devices_per_process=devices_per_process)
+    if status:
+        raise click.exceptions.Exit(status)
