@@ -380,7 +380,11 @@ class TimeDomain(AbstractExactSimulator):
         pulse, scat = self.chunks(acquisition.num_pulses, n_r, n_s, dtype)
         item = np.dtype(dtype).itemsize
         padded = (-(-n_s // scat)) * scat * 6 * 8
-        return int(pulse * self._per_pulse(n_r, scat, item) + padded)
+        n = acquisition.num_pulses
+        # pulses left over after the whole chunks are evaluated apart and the two parts
+        # joined: one more output-sized array
+        joined = n * n_r * item if n % pulse else 0
+        return int(pulse * self._per_pulse(n_r, scat, item) + padded + joined)
 
     @staticmethod
     def _per_pulse(num_range, scat, item):
@@ -416,13 +420,15 @@ class TimeDomain(AbstractExactSimulator):
     def chunks(self, num_pulses, num_range, num_scatterers, dtype):
         """(pulse_chunk, scatterer_chunk) honouring the memory budget."""
         item = jnp.dtype(dtype).itemsize
-        # up to _LOOPED_SCATTERERS: all at once (their loop), many pulses together; beyond:
-        # one pulse at a time (an unbatched matrix product runs ~2× faster than a batched
-        # one on the CPU) and up to 4096 scatterers (benchmarks/RESULTS.md sweep)
+        # up to _LOOPED_SCATTERERS: all at once (their loop), as many pulses as keep the
+        # loop's block accumulators within ~1 MB (cache: 2-3x faster than 8 MB and more);
+        # beyond: one pulse at a time (an unbatched matrix product runs ~2× faster than a
+        # batched one on the CPU) and up to 4096 scatterers (benchmarks/RESULTS.md sweep)
         looped = num_scatterers <= _LOOPED_SCATTERERS
         scat = self.scatterer_chunk or max(1, min(num_scatterers, 4096))
         per_pulse = self._per_pulse(num_range, scat, item)
-        most = max(1, 8192 // scat) if looped else 1
+        n_hi, n_lo = range_blocks(num_range)
+        most = max(1, 2**20 // (n_hi * n_lo * item)) if looped else 1
         pulse = self.pulse_chunk or max(
             1, min(num_pulses, self.memory_budget // per_pulse, most)
         )
