@@ -39,6 +39,7 @@ import numpy as np
 
 import sarjax as sj
 from sarjax.inverse import _autofocus as af
+from sarjax.inverse import _sharpness
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -91,14 +92,15 @@ def evaluate(radar, raw, truth, points, result, reference, where):
     aperture = af.residual_phase_rms(radar, result, truth, blocks)
     global_ = af.residual_phase_rms(radar, result, truth, blocks, detrend="global")
     entropy = af.image_entropy(result.image.data) / af.image_entropy(reference.data) - 1
-    contrast = af.image_contrast(result.image.data) / af.image_contrast(reference.data) - 1
+    contrast = (_sharpness.image_contrast(result.image.data)
+                / _sharpness.image_contrast(reference.data) - 1)
     d_pslr = pslr(result.image, where) - pslr(reference, where)
     return dict(aperture=aperture, global_=global_, entropy=entropy, contrast=contrast,
                 d_pslr=d_pslr)
 
 
 def single_history_floor(radar, raw, truth):
-    focus_ranges = np.asarray(af.make_focuser(radar, raw).range)
+    focus_ranges = np.asarray(_sharpness.make_focuser(radar, raw).range)
     common = af.true_line_of_sight_phase(radar, truth, focus_ranges).mean(axis=0)
     floor = af.no_estimate(raw)
     floor = af.AutofocusResult(**{**floor.__dict__, "phase_history": common,
