@@ -325,6 +325,16 @@ def _lift_over_pulses(kernel, pulses, pulse_chunk):
     return jax.lax.map(kernel, pulses, batch_size=pulse_chunk)
 
 
+def _divides(total, most):
+    """The largest chunk in (most / 2, most] that divides ``total``, else ``most``: whole
+    chunks only spare the copy that joins a remainder to them (~35 % of the 9-point
+    4096 × 2048 case)."""
+    for size in range(most, most // 2, -1):
+        if total % size == 0:
+            return size
+    return most
+
+
 class TimeDomainPlan(AbstractPlan):
     """Whether the general kernel (squint, moving scatterers, non-stop-and-go) runs:
     False for a broadside radar, static scatterers and stop-and-go, which runs the
@@ -429,9 +439,8 @@ class TimeDomain(AbstractExactSimulator):
         per_pulse = self._per_pulse(num_range, scat, item)
         n_hi, n_lo = range_blocks(num_range)
         most = max(1, 2**20 // (n_hi * n_lo * item)) if looped else 1
-        pulse = self.pulse_chunk or max(
-            1, min(num_pulses, self.memory_budget // per_pulse, most)
-        )
+        pulse = self.pulse_chunk or _divides(
+            num_pulses, max(1, min(num_pulses, self.memory_budget // per_pulse, most)))
         return int(pulse), int(scat)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
