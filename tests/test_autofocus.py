@@ -183,3 +183,64 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
     np.testing.assert_allclose(np.asarray(stored.product.data), np.asarray(direct.data),
                                rtol=1e-6, atol=1e-9 * float(np.abs(direct.data).max()))
     assert stored.attrs["autofocus_method"] == "model"
+
+
+# ---- full size (slow): the acceptance setup of issue 18 -----------------------------------
+
+
+def _acceptance_draw(seed):
+    """Airborne preset 1941 × 830, ``random_scene`` (clutter fields, road, 12 bright
+    points), Δy, Δz smooth 2 cm rms (2 cycles per footprint), seed pointing jitter,
+    SNR 10 dB (as ``benchmarks/bench_autofocus.py``)."""
+    radar = sj.presets.airborne_xband()
+    rng = np.random.default_rng(seed)
+    x = _axis(radar)
+    footprint = float(radar.footprint(radar.reference_range))
+    clutter, points = sj.inverse.random_scene(radar, x, key=rng)
+    truth = sj.Motion(
+        horizontal=sj.smooth_deviation(x, key=rng, rms=0.02, max_cycles=2, aperture=footprint),
+        vertical=sj.smooth_deviation(x, key=rng, rms=0.02, max_cycles=2, aperture=footprint),
+        pointing=sj.seed_pointing_jitter(radar, x, phase=rng.uniform(-np.pi, np.pi)))
+    parts = [sj.simulate(radar, s, truth, method="time_domain_nufft") for s in (clutter, points)]
+    data = np.asarray(parts[0].data) + np.asarray(parts[1].data)
+    power = np.mean(np.abs(data) ** 2) / 10
+    data = data + np.sqrt(power / 2) * (rng.normal(size=data.shape)
+                                        + 1j * rng.normal(size=data.shape))
+    return radar, sj.RawData(data=data, azimuth=parts[0].azimuth, range=parts[0].range), truth
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 18 acceptance not reached: with a few bright "
+                   "points in bright clutter the residual stays at tenths of a radian "
+                   "(docs/autofocus.md, benchmarks/RESULTS.md)")
+def test_acceptance_residual_below_0p02_rad_in_9_of_10_draws():
+    """The issue's acceptance: ≤ 0.02 rad (aperture-detrended) in every range block in at
+    least 9 of 10 drawn scenes and motions (seeds the benchmark does not use)."""
+    successes = 0
+    for seed in range(500, 510):
+        radar, raw, truth = _acceptance_draw(seed)
+        result = sj.inverse.autofocus(radar, raw, estimate_pointing=False)
+        blocks = af.range_blocks(radar, raw.range)
+        successes += bool(np.all(af.residual_phase_rms(radar, result, truth, blocks) <= 0.02))
+        if seed - 500 + 1 - successes > 1:
+            break
+    assert successes >= 9
+
+
+@pytest.mark.slow
+def test_full_size_autofocus_improves_on_no_correction_and_runs_in_two_minutes():
+    """One full-size acceptance draw: the model-based estimate removes at least half of the
+    aperture-detrended line-of-sight error in every range block (a loose bound: the
+    benchmark's draws are in RESULTS.md) and the call, compilation included, takes at most
+    150 s (2 min asked, on a shared 2-core machine)."""
+    import time
+
+    radar, raw, truth = _acceptance_draw(501)
+    blocks = af.range_blocks(radar, raw.range)
+    before = af.residual_phase_rms(radar, af.no_estimate(raw), truth, blocks)
+    t0 = time.perf_counter()
+    result = sj.inverse.autofocus(radar, raw)
+    seconds = time.perf_counter() - t0
+    after = af.residual_phase_rms(radar, result, truth, blocks)
+    assert np.all(after <= 0.5 * before), (after, before)
+    assert seconds <= 150.0
