@@ -3,8 +3,9 @@
 XLA's persistent cache (:mod:`sarjax._compilation_cache`) skips the compilation of a
 program a later process lowers again, but not the Python work before it: tracing the
 simulator to a jaxpr and lowering it (2–3 s for a Fourier-domain method). Here the whole
-compiled program of one jitted call (``_simulate._run``) is kept: the first call traces,
-lowers and compiles it as usual, then serialises the executable under a key of
+compiled program of a jitted call is kept (the simulation, ``_simulate._run``, and the
+eager programs of the budget checks decorated with :func:`cached`): the first call
+traces, lowers and compiles it as usual, then serialises the executable under a key of
 everything that determines it; a later process with the same key loads it and runs it
 without tracing.
 
@@ -56,11 +57,17 @@ logger = logging.getLogger(__name__)
 
 FORMAT = b"sarjax-program 1\n"  # the first line of every entry
 SUFFIX = ".bin"
-_MEMORY_ENTRIES = 8  # programs kept loaded in this process (least recently used dropped)
+_MEMORY_ENTRIES = 32  # programs kept loaded in this process (least recently used dropped)
 # jax options read while tracing: a program traced under other values is another program
 _CONFIG = ("jax_enable_x64", "jax_numpy_rank_promotion", "jax_numpy_dtype_promotion",
            "jax_default_matmul_precision", "jax_default_device", "jax_threefry_partitionable",
            "jax_enable_checks", "jax_debug_nans", "jax_debug_infs", "jax_disable_jit")
+
+# what writing an entry may raise (the disk, pickling the output's static part, XLA), and
+# what reading a damaged or foreign one may (its header, its pickle, XLA)
+_NOT_KEPT = (OSError, RuntimeError, ValueError, TypeError, AttributeError, pickle.PicklingError)
+_DAMAGED = (OSError, RuntimeError, ValueError, TypeError, KeyError, IndexError, EOFError,
+            AttributeError, ImportError, pickle.UnpicklingError)
 
 _folder: Path | None = None
 _loaded: collections.OrderedDict = collections.OrderedDict()
@@ -85,6 +92,17 @@ def persistent(fn):
     if _folder is None:
         return fn
     return functools.partial(_call, fn)
+
+
+def cached(fn):
+    """Decorator: ``fn`` (an ``eqx.filter_jit`` function) through :func:`persistent` on
+    each call, so its programs are kept while a folder is set (positional calls)."""
+
+    @functools.wraps(fn, updated=())
+    def call(*args, **kwargs):
+        return persistent(fn)(*args) if not kwargs else fn(*args, **kwargs)
+
+    return call
 
 
 class Unkeyable(TypeError):
@@ -142,7 +160,7 @@ def _first_run(compiled, leaves, fn, key):
     when it fails to run (a program that loads but does not run is not trusted)."""
     try:
         return jax.block_until_ready(compiled(*leaves))
-    except Exception as err:  # jax.errors.JaxRuntimeError and what the inputs raise
+    except (RuntimeError, ValueError) as err:  # jax.errors.JaxRuntimeError: a missing function
         logger.warning("ignoring cache entry %s: it does not run: %s", _path(fn, key), err)
         _path(fn, key).unlink(missing_ok=True)
         return None
@@ -231,7 +249,7 @@ def _store(fn, key, entry):
         atomic_write(_path(fn, key),
                      lambda tmp: tmp.write_bytes(FORMAT + header.encode() + b"\n" + program
                                                  + outputs), overwrite=True)
-    except Exception as err:  # a full disk, a read-only folder, a program XLA cannot save
+    except _NOT_KEPT as err:  # a full disk, a read-only folder, a program XLA cannot save
         logger.warning("compiled program not kept in %s: %s", _folder, err)
 
 
@@ -263,7 +281,7 @@ def _load(fn, key, num_inputs):
             template, is_leaf=lambda x: isinstance(x, _Slot)))
         out_tree = jax.tree_util.tree_structure([0] * num_outputs)
         compiled = deserialize_and_load(program, in_tree, out_tree)
-    except Exception as err:  # anything unexpected in the file: compile afresh
+    except _DAMAGED as err:  # anything unexpected in the file: compile afresh
         logger.warning("ignoring cache entry %s: %s", path, err)
         return None
     return compiled, template
@@ -291,24 +309,26 @@ def _environment() -> str:
     """Versions, backend, devices, CPU and the sarjax source: fixed for a process."""
     from importlib.metadata import version
 
-    cpu = ""
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = "".join(sorted({line for line in f
-                                  if line.startswith(("model name", "flags"))}))
-    except OSError:
-        pass
     return _encode({
         "python": sys.version,
         "versions": {name: version(name) for name in ("jax", "jaxlib", "equinox", "numpy")},
         "backend": jax.default_backend(),
         "platform_version": jax.devices()[0].client.platform_version,
         "devices": [_device(d) for d in jax.devices()],
-        "machine": (platform.machine(), platform.processor(), hashlib.sha256(
-            cpu.encode()).hexdigest()),
+        "machine": (platform.machine(), platform.processor(), _cpu()),
         "xla_flags": os.environ.get("XLA_FLAGS", ""),
         "sarjax": _source_digest(),
     })
+
+
+def _cpu() -> str:
+    """SHA-256 of the CPU's model and instruction-set flags (Linux), else empty."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return ""
+    wanted = sorted({line for line in lines if line.startswith(("model name", "flags"))})
+    return hashlib.sha256("\n".join(wanted).encode()).hexdigest()
 
 
 def _source_digest() -> str:
@@ -351,7 +371,9 @@ def _name(obj) -> str:
     found = sys.modules.get(module) or importlib.import_module(module)
     for part in qualname.split("."):
         found = getattr(found, part, None)
-    if found is not obj and getattr(found, "__wrapped__", None) is not obj:
+    while found is not obj and hasattr(found, "__wrapped__"):  # under decorators
+        found = found.__wrapped__
+    if found is not obj:
         raise Unkeyable(f"{module}.{qualname} is not {obj!r}")
     return f"{module}.{qualname}"
 

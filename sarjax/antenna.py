@@ -14,9 +14,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from . import _exported
 from ._numerics.phasor import sine
 
 
+@_exported.cached  # kept on disk with the compilation cache (traced once per shape)
 @eqx.filter_jit
 def evaluate(pattern, u):
     """``pattern(u)`` as one compiled program (for eager use on concrete values: a
@@ -24,6 +26,7 @@ def evaluate(pattern, u):
     return pattern(u)
 
 
+@_exported.cached
 @eqx.filter_jit
 def derivative_peak(pattern, order, u):
     """max over ``u`` of ``|W²⁽ⁿ⁾(u)|``, n = ``order`` (static), by autodiff."""
