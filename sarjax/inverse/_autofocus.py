@@ -331,13 +331,12 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     if max_steps > 0:
         region = None
         if sharpness_region == "targets":
-            power = np.abs(np.asarray(image)) ** 2
-            rows, cols = _pga.select_targets(power, x.size, segment=segment,
-                                             max_targets=max_targets, min_ratio=min_ratio,
-                                             exclusion=8)
-            region = (rows, cols, int(round(target_window / spacing)))
-        c_y, c_z, value = _sharpen(focuser, design_y, design_z, c_y, c_z, objective,
-                                   max_steps, region)
+            region = _target_region(focuser, image, segment, max_targets, min_ratio,
+                                    int(round(target_window / spacing)))
+        c, value = _sharpen(focuser, _LineOfSight(jnp.asarray(design_y), jnp.asarray(design_z)),
+                            np.concatenate([c_y, c_z]), 1.0 / float(radar.wavenumber),
+                            objective, max_steps, region)
+        c_y, c_z = c[: c_y.size], c[c_y.size:]
         log.append(("sharpness", time.perf_counter() - t0, value))
     timings["sharpness"] = time.perf_counter() - t0
 
@@ -392,53 +391,78 @@ def _remove_trend(profile):
     return p - t * (t @ p) / (t @ t)
 
 
-def _sharpen(focuser, design_y, design_z, c_y, c_z, objective, max_steps, region=None):
-    """L-BFGS on the sharpness w.r.t. the B-spline coefficients (phase units).
+class _LineOfSight(eqx.Module):
+    """Phase model of the sharpness stage: Δy = B_y c[:n], Δz = B_z c[n:] (c in metres)
+    through the exact line-of-sight deviation at each range bin."""
 
-    ``region``: None (the whole swath) or (rows, cols, half): the objective of the image
-    windows ±half columns about the dominant scatterers (rows ±1 range bin), normalised
-    by their own energy, so that the speckle between them does not drive the fit.
+    design_y: jnp.ndarray
+    design_z: jnp.ndarray
+
+    def __call__(self, foc, c, band):
+        n = self.design_y.shape[1]
+        return foc.line_of_sight_phase(self.design_y @ c[:n], self.design_z @ c[n:],
+                                       range_index=band)
+
+
+class _History(eqx.Module):
+    """Phase model of one history shared by all ranges: φ = B c (c in radians)."""
+
+    design: jnp.ndarray
+
+    def __call__(self, foc, c, band):
+        rows = foc.range.shape[0] if band is None else band.shape[0]
+        return jnp.broadcast_to((self.design @ c)[None, :], (rows, self.design.shape[0]))
+
+
+def _target_region(focuser, image, segment, max_targets, min_ratio, half):
+    """(range index (3k,), columns (3k, 2·half + 1)) of the windows about the dominant
+    scatterers of ``image`` (their range bins ±1)."""
+    power = np.abs(np.asarray(image)) ** 2
+    rows, cols = _pga.select_targets(power, focuser.num_pulses, segment=segment,
+                                     max_targets=max_targets, min_ratio=min_ratio,
+                                     exclusion=8)
+    n_rows = int(focuser.range.shape[0])
+    band = np.clip(rows[:, None] + np.arange(-1, 2)[None, :], 0, n_rows - 1)
+    n_fft = int(focuser.compressed.shape[-1])
+    columns = (np.repeat(cols, 3)[:, None] + np.arange(-half, half + 1)[None, :]) % n_fft
+    return jnp.asarray(band.ravel()), jnp.asarray(columns)
+
+
+def _sharpen(focuser, phase_model, c0, step, objective, max_steps, region=None):
+    """L-BFGS on the sharpness w.r.t. the coefficients ``c = c0 + step · θ`` of
+    ``phase_model`` (``step``: one unit of θ ≈ 1 rad of phase).
+
+    ``region``: None (the whole swath) or (range index, columns) from
+    :func:`_target_region`: the objective of the image windows about the dominant
+    scatterers, normalised by their own energy, so that the speckle between them does not
+    drive the fit.
+
+    Returns:
+        (c, final objective value).
     """
-    scale = 1.0 / float(focuser.radar.wavenumber)  # one unit = 1 rad of LOS phase
-    n = design_y.shape[1]
-    by = jnp.asarray(design_y)
-    bz = jnp.asarray(design_z)
-    if region is None:
-        index = None
-    else:
-        rows, cols, half = region
-        n_rows = int(focuser.range.shape[0])
-        band = np.clip(np.asarray(rows)[:, None] + np.arange(-1, 2)[None, :], 0, n_rows - 1)
-        n_fft = int(focuser.compressed.shape[-1])
-        columns = (np.repeat(np.asarray(cols), 3)[:, None]
-                   + np.arange(-half, half + 1)[None, :]) % n_fft
-        index = (jnp.asarray(band.ravel()), jnp.asarray(columns))
 
     def loss(theta, data):
-        foc, c0, index = data
-        c = c0 + theta * scale
+        foc, model, c0, index = data
+        c = c0 + theta * step
         if index is None:
-            phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:])
-            return sharpness_loss(foc.image(phase), foc.energy, objective)
+            return sharpness_loss(foc.image(model(foc, c, None)), foc.energy, objective)
         band, columns = index
-        phase = foc.line_of_sight_phase(by @ c[:n], bz @ c[n:], range_index=band)
-        image = foc.image(phase, range_index=band)
+        image = foc.image(model(foc, c, band), range_index=band)
         windows = jnp.take_along_axis(image, columns, axis=-1)
         energy = jnp.sum(jnp.real(windows) ** 2 + jnp.imag(windows) ** 2)
         return sharpness_loss(windows, energy, objective)
 
     fn = value_and_grad(loss)
-    c0 = jnp.asarray(np.concatenate([c_y, c_z]))
+    c0 = jnp.asarray(c0)
 
     def fun(theta):
-        value, grad = fn(jnp.asarray(theta), (focuser, c0, index))
+        value, grad = fn(jnp.asarray(theta), (focuser, phase_model, c0, region))
         return float(value), np.asarray(grad, float)
 
-    res = scipy.optimize.minimize(fun, np.zeros(2 * n), jac=True, method="L-BFGS-B",
+    res = scipy.optimize.minimize(fun, np.zeros(c0.shape[0]), jac=True, method="L-BFGS-B",
                                   options=dict(maxiter=max_steps, maxcor=20, ftol=1e-15,
                                                gtol=1e-12))
-    c = np.asarray(c0) + res.x * scale
-    return c[:n], c[n:], float(res.fun)
+    return np.asarray(c0) + res.x * step, float(res.fun)
 
 
 def _pointing(radar, focuser, dy, dz, spline, x):
@@ -527,15 +551,20 @@ def pga(radar, raw: RawData, *, windows=(48.0, 24.0, 12.0, 6.0, 3.0), max_target
 
 def sharpness_phase(radar, raw: RawData, *, num_basis: int | None = None,
                     objective: str = "entropy", max_steps: int = 200,
-                    initial: AutofocusResult | None = None) -> AutofocusResult:
+                    initial: AutofocusResult | None = None,
+                    sharpness_region: str = "targets",
+                    target_window: float = 16.0) -> AutofocusResult:
     """Sharpness-only autofocus of one phase history φ(x') = B(x') c [rad] shared by all
     ranges (the second baseline): L-BFGS on the objective from ``initial``'s history (or
-    from PGA's, computed here when None).
+    from PGA's, computed here when None), on the same windows about the dominant
+    scatterers as :func:`autofocus` (``sharpness_region``, ``target_window`` as there).
 
     Returns:
         :class:`AutofocusResult` with ``phase_history`` and ``method="sharpness_phase"``.
     """
     _check(radar, raw, objective, (1.0,), max_steps)
+    if sharpness_region not in ("targets", "image"):
+        raise ValueError(f"sharpness_region={sharpness_region!r}; choose 'targets' or 'image'")
     t0 = time.perf_counter()
     start = pga(radar, raw) if initial is None else initial
     if start.phase_history is None:
@@ -545,25 +574,20 @@ def sharpness_phase(radar, raw: RawData, *, num_basis: int | None = None,
     n_basis = _default_model(radar, x).horizontal.num_basis() if num_basis is None else num_basis
     design = np.asarray(BSpline(n_basis).bind(x).design(jnp.asarray(x)))
     c0 = np.linalg.lstsq(design, start.phase_history, rcond=None)[0]
-    b = jnp.asarray(design)
-
-    def loss(c, foc):
-        return sharpness_loss(foc.image((b @ c)[None, :]), foc.energy, objective)
-
-    fn = value_and_grad(loss)
-
-    def fun(c):
-        value, grad = fn(jnp.asarray(c), focuser)
-        return float(value), np.asarray(grad, float)
-
-    res = scipy.optimize.minimize(fun, c0, jac=True, method="L-BFGS-B",
-                                  options=dict(maxiter=max_steps, maxcor=20, ftol=1e-15,
-                                               gtol=1e-12))
-    phase = design @ res.x
+    region = None
+    if sharpness_region == "targets":
+        spacing = float(radar.azimuth_spacing)
+        segment = max(int(float(radar.footprint(radar.reference_range)) / 2 / spacing), 8)
+        image = _pga.jax_image(focuser, jnp.asarray(design @ c0)[None, :])
+        region = _target_region(focuser, image, segment, 24, 30.0,
+                                int(round(target_window / spacing)))
+    c, value = _sharpen(focuser, _History(jnp.asarray(design)), c0, 1.0, objective,
+                        max_steps, region)
+    phase = design @ c
     image = _phase_image(radar, raw, phase)
     return AutofocusResult(
         motion=Motion(), phase_history=phase, image=image, method="sharpness_phase",
-        objective=objective, history=start.history + (("sharpness", 0.0, float(res.fun)),),
+        objective=objective, history=start.history + (("sharpness", 0.0, value),),
         timings={"total": time.perf_counter() - t0}, fixed=("mean phase", "linear phase"),
         coverage=start.coverage,
     )
