@@ -15,8 +15,9 @@ scene.
 Unobservable components, held at zero and listed in :attr:`AutofocusResult.fixed`: the
 constant and the linear trend of Δy and Δz over the pulses (a constant deviation changes
 each scatterer's phase by a constant, a linear one moves the image; neither changes the
-sharpness); the mean of δ_az (a constant Doppler offset trades with a linear trend of the
-line-of-sight deviation).
+sharpness); the components of δ_az slower than about X/2 (a constant Doppler offset trades
+with a linear trend of the line-of-sight deviation, slow ones with the backscatter's
+variation across the beam).
 """
 
 from __future__ import annotations
@@ -203,7 +204,7 @@ def _default_model(radar, x):
     # rms); more functions over-fit the speckle (X/40: ≈ 1 rad residual on the same data)
     n = int(np.clip(round(span / (footprint / 8)) + 3, 6, 200))
     return MotionModel(horizontal=BSpline(n), vertical=BSpline(n),
-                       pointing=BSpline(max(int(round(span / (footprint / 20))) + 3, 8)))
+                       pointing=BSpline(max(int(round(span / (footprint / 30))) + 3, 8)))
 
 
 def _check(radar, raw, objective, windows, max_steps):
@@ -360,7 +361,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     timings["total"] = time.perf_counter() - t_start
     fixed = ("mean horizontal", "linear horizontal", "mean vertical", "linear vertical")
     if estimate_pointing:
-        fixed = fixed + ("mean pointing",)
+        fixed = fixed + ("pointing slower than X/2",)
     return AutofocusResult(
         motion=motion, phase_history=None, image=image, method="model", objective=objective,
         history=tuple(log), timings=timings, fixed=fixed,
@@ -472,9 +473,13 @@ def _pointing(radar, focuser, dy, dz, spline, x):
     Doppler centroid to ``f_dc = −2v δ_az/λ``. Per pulse, the average cross-correlation
     of adjacent compensated pulses over all kept range bins,
     ``c(p) = Σ_r s̃(x'_{p+1}, r) s̃*(x'_p, r)``, has the phase ``2π f_dc/PRF`` (Madsen
-    1989); it is fitted by the B-spline ``spline`` (weighted by |c|) and its mean removed.
-    The estimate assumes the backscatter varies slowly across the footprint: an edge of the
-    clutter inside the beam biases it.
+    1989); it is fitted by the B-spline ``spline`` (weighted by |c|). The backscatter's
+    variation across the beam (fields, edges, bright points) shifts the centroid too, slowly:
+    it is a convolution of the scene with the footprint. So the components slower than
+    about X/2 (a smooth B-spline with knots every X/4, X the footprint at r₀) are removed
+    from the estimate, with them any slow pointing error (measured on a drawn clutter scene
+    with the seed jitter, T_b = T_s/10: 17 % rms error, 1.3e-3 rad rms without this step,
+    i.e. worse than no estimate).
     """
     correlation = np.asarray(_adjacent_correlation(focuser, jnp.asarray(dy), jnp.asarray(dz)))
     f_dc = np.angle(correlation) * float(radar.prf) / (2 * np.pi)  # (pulse − 1,)
@@ -484,6 +489,10 @@ def _pointing(radar, focuser, dy, dz, spline, x):
     w = np.sqrt(np.abs(correlation))
     coef = np.linalg.lstsq(design * w[:, None], pointing * w, rcond=None)[0]
     profile = np.asarray(spline.design(jnp.asarray(x))) @ coef
+    footprint = float(radar.footprint(radar.reference_range))
+    slow = BSpline(max(int(round(np.ptp(x) / (footprint / 4))) + 3, 4)).bind(x)
+    slow_design = np.asarray(slow.design(jnp.asarray(x)))
+    profile = profile - slow_design @ np.linalg.lstsq(slow_design, profile, rcond=None)[0]
     return profile - profile.mean()
 
 
