@@ -133,10 +133,10 @@ def test_no_harm_without_motion_error(radar):
 @given(seed=st.integers(0, 50), rms=st.sampled_from([0.004, 0.008]))
 def test_autofocus_reduces_the_phase_error(seed, rms):
     """Drawn point scenes and smooth deviations of several λ/4π (4–8 mm rms, 1.5 cycles per
-    footprint), SNR 20 dB: the model-based estimate removes at least 70 % of the
+    footprint), SNR 20 dB: the model-based estimate removes at least 75 % of the
     aperture-detrended line-of-sight phase error in every range block, and does at least as
-    well as single-history PGA on the same data (measured: ≈ 90 % and better than PGA on
-    these cases; 70 % leaves room for the drawn geometries)."""
+    well as single-history PGA on the same data (measured on seeds 0, 7, 23: 88–99 % removed,
+    0.014–0.11 rad left against PGA's 0.05–0.15 rad; 75 % leaves room for other draws)."""
     radar = _radar()
     truth = _motion(radar, rms, seed)
     raw = _noisy(radar, _scene(radar, seed), truth, seed)
@@ -144,7 +144,7 @@ def test_autofocus_reduces_the_phase_error(seed, rms):
     zero = af.residual_phase_rms(radar, af.no_estimate(raw), truth, blocks)
     result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
     ours = af.residual_phase_rms(radar, result, truth, blocks)
-    assert np.all(ours <= 0.3 * zero), (ours, zero)
+    assert np.all(ours <= 0.25 * zero), (ours, zero)
     pga = sj.inverse.pga(radar, raw)
     theirs = af.residual_phase_rms(radar, pga, truth, blocks)
     assert np.mean(ours) <= np.mean(theirs) * 1.1, (ours, theirs)
@@ -210,8 +210,8 @@ def _acceptance_draw(seed):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 18 acceptance not reached: with a few bright "
-                   "points in bright clutter the residual stays at tenths of a radian "
+@pytest.mark.xfail(strict=True, reason="issue 18 acceptance not reached: with 12 bright "
+                   "points in bright clutter the residual is ≈ 0.04–0.2 rad per block "
                    "(docs/autofocus.md, benchmarks/RESULTS.md)")
 def test_acceptance_residual_below_0p02_rad_in_9_of_10_draws():
     """The issue's acceptance: ≤ 0.02 rad (aperture-detrended) in every range block in at
