@@ -44,8 +44,8 @@ def test_pulse_extent_is_the_float64_test():
 
 
 def test_many_scatterers_match_the_numpy_oracle():
-    """36 scatterers in one chunk take the matrix-product branch: against the float64
-    oracle within 1e-9 (the reference test's bound: float64 rounding of ~2e6 rad
+    """36 scatterers in one chunk take the matrix-product branch, by default the loop
+    over chunks of 32: both against the float64 oracle within 1e-9 (the reference test's bound: float64 rounding of ~2e6 rad
     phases); complex64 within 1e-5 (its tables' rounding, measured ≈ 3e-7)."""
     radar = sj.presets.airborne_xband(**RADAR_OVERRIDES)
     kw = _radar_kwargs(radar)
@@ -64,10 +64,11 @@ def test_many_scatterers_match_the_numpy_oracle():
         **deviation, num_pulses=num_pulses, num_range=num_range, near_range=near)
     scene = sj.PointTargets(**targets)
     motion = sj.Motion(**deviation)
-    assert td.TimeDomain().chunks(num_pulses, num_range, n, jnp.complex128)[1] == n
-    assert n > td._LOOPED_SCATTERERS
+    assert n > td._LOOPED_SCATTERERS  # scatterer_chunk=n: the product
     for dtype, bound in ((jnp.complex128, 1e-9), (jnp.complex64, 1e-5)):
-        raw = sj.simulate(radar, scene, motion, num_pulses=num_pulses, num_range=num_range,
-                          near_range=near, dtype=dtype)
-        data = np.asarray(raw.data, np.complex128)
-        assert np.linalg.norm(data - ref) / np.linalg.norm(ref) <= bound, dtype
+        for chunk in (None, n):  # the default (loops over chunks of 32), the product
+            raw = sj.simulate(radar, scene, motion, num_pulses=num_pulses,
+                              num_range=num_range, near_range=near, dtype=dtype,
+                              scatterer_chunk=chunk)
+            data = np.asarray(raw.data, np.complex128)
+            assert np.linalg.norm(data - ref) / np.linalg.norm(ref) <= bound, (dtype, chunk)
