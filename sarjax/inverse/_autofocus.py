@@ -230,7 +230,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
               objective: str = "entropy", windows=(48.0, 24.0, 12.0, 8.0, 6.0, 4.0, 4.0, 4.0),
               max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 200,
               estimate_pointing: bool = True, sharpness_region: str = "targets",
-              target_window: float = 16.0) -> AutofocusResult:
+              target_window: float = 16.0, step_check: str = "windows") -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
     Stages (module docstring): range-dependent phase gradients of the dominant scatterers
@@ -257,6 +257,10 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             ``"image"``: of the whole swath (measured to over-fit the speckle of clutter:
             its entropy falls below the true track's while the error grows).
         target_window: half-width of those windows [m].
+        step_check: how a phase-gradient step is judged: ``"windows"`` (default) by the
+            objective of the windows about the current dominant scatterers, ``"image"`` by
+            that of the whole swath (speckle-dominated: it admitted steps that made the
+            error grow).
         estimate_pointing: estimate δ_az (else ``motion.pointing`` is None).
 
     Returns:
@@ -269,6 +273,8 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     _check(radar, raw, objective, windows, max_steps)
     if sharpness_region not in ("targets", "image"):
         raise ValueError(f"sharpness_region={sharpness_region!r}; choose 'targets' or 'image'")
+    if step_check not in ("windows", "image"):
+        raise ValueError(f"step_check={step_check!r}; choose 'windows' or 'image'")
     if not target_window > 0:
         raise ValueError(f"target_window={target_window!r} must be > 0 [m]")
     x = np.asarray(raw.azimuth, float)
@@ -318,7 +324,14 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
                                  jnp.asarray(design_z @ (c_z + dz_c)))
         trial = _pga.jax_image(focuser, trial_phase)
         trial_value = float(_sharpness_value(trial, focuser.energy, objective))
-        if trial_value >= value:  # a step that does not sharpen the image is not taken
+        if step_check == "windows":  # judged on the windows about the dominant scatterers
+            region = _target_region(focuser, image, segment, max_targets, min_ratio,
+                                    int(round(target_window / spacing)))
+            worse = (float(_window_value(focuser, trial_phase, region, objective))
+                     >= float(_window_value(focuser, phase, region, objective)))
+        else:
+            worse = trial_value >= value
+        if worse:  # a step that does not sharpen the image is not taken
             log.append((f"gradients {i} (rejected)", time.perf_counter() - t0, trial_value))
             continue
         c_y, c_z, phase, image, value = c_y + dy_c, c_z + dz_c, trial_phase, trial, trial_value
@@ -427,6 +440,17 @@ def _target_region(focuser, image, segment, max_targets, min_ratio, half):
     n_fft = int(focuser.compressed.shape[-1])
     columns = (np.repeat(cols, 3)[:, None] + np.arange(-half, half + 1)[None, :]) % n_fft
     return jnp.asarray(band.ravel()), jnp.asarray(columns)
+
+
+@functools.partial(eqx.filter_jit)
+def _window_value(focuser, phase, region, objective):
+    """Objective of the windows ``region`` (:func:`_target_region`) of the image after
+    compensating the (range, pulse) ``phase``, normalised by their own energy."""
+    band, columns = region
+    image = focuser.image(phase[band], range_index=band)
+    windows = jnp.take_along_axis(image, columns, axis=-1)
+    energy = jnp.sum(jnp.real(windows) ** 2 + jnp.imag(windows) ** 2)
+    return sharpness_loss(windows, energy, objective)
 
 
 def _sharpen(focuser, phase_model, c0, step, objective, max_steps, region=None):
