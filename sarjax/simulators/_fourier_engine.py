@@ -558,6 +558,17 @@ def _alias_column_count(chirp_rate, half_length, range_spacing, n_r, tolerance):
 # --------------------------------------------------------------------------------------
 
 
+def alias_shift(turns):
+    """``round(turns)``, the whole periods 2π/Δx that bring a sampled wavenumber nearest
+    the Doppler centroid, with the tie (``turns`` = k + ½: the bin at exactly ±PRF/2 from
+    the centroid, which both aliases share, at broadside the Nyquist bin of an even grid)
+    always resolved upward. Computed plainly, ``turns`` lands an ulp either side of the
+    tie depending on how XLA fuses its arithmetic, so two compilations of one call (one
+    device or several) would pick different aliases for that bin; ties closer than 1e-9
+    of a period are resolved alike."""
+    return jnp.floor(turns + (0.5 + 1e-9))
+
+
 def squinted_wavenumbers(radar, n_x):
     """(n_x,) the alias ``ξ + 2πm/Δx`` of each sampled azimuth wavenumber nearest the
     Doppler centroid ``ξ_d = k₀ sin φ_d`` [rad/m] (DFT order kept; at broadside the DFT's
@@ -565,7 +576,7 @@ def squinted_wavenumbers(radar, n_x):
     period = _TWO_PI / radar.azimuth_spacing
     xi = period * jnp.fft.fftfreq(n_x, 1.0)
     xi_d = radar.wavenumber * jnp.sin(radar.squint)
-    return xi + period * jnp.round((xi_d - xi) / period)
+    return xi + period * alias_shift((xi_d - xi) / period)
 
 
 def squinted_pattern_argument(radar, xi):

@@ -78,7 +78,7 @@ def nearest_alias(xi, k, squint, dx):
     Doppler centroid at that range wavenumber, ``k sin φ_d`` (the centroid moves with k:
     across a wide band at large squint by more than the PRF band)."""
     period = _TWO_PI / dx
-    return xi + period * jnp.round((k * jnp.sin(squint) - xi) / period)
+    return xi + period * engine.alias_shift((k * jnp.sin(squint) - xi) / period)
 
 
 def _grid_spectra(values, offset, n_x):
