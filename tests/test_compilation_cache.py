@@ -69,7 +69,11 @@ def test_the_api_opt_in_keeps_a_folder_already_chosen(tmp_path):
     # the suite runs with JAX_COMPILATION_CACHE_DIR set (tests/conftest.py)
     chosen = jax.config.jax_compilation_cache_dir
     assert chosen
-    assert str(sj.enable_compilation_cache(tmp_path / "elsewhere")) == chosen
+    kept = _exported.folder()
+    try:
+        assert str(sj.enable_compilation_cache(tmp_path / "elsewhere")) == chosen
+    finally:  # the opt-in also turns the programs on: not for the tests after this one
+        _exported.set_folder(kept)
     assert not (tmp_path / "elsewhere").exists()
 
 

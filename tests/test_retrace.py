@@ -54,6 +54,18 @@ def _motion(scale=0.0, num_pulses=NUM_PULSES):
                      pointing=scale * 1e-3 * np.cos(5 * x))
 
 
+@pytest.fixture(autouse=True)
+def _jit_path_only():
+    """These tests count jax's traces and jit cache entries: the simulation programs kept
+    on disk (``sarjax._exported``, off unless a caller opts in) would bypass both."""
+    from sarjax import _exported
+
+    kept = _exported.folder()
+    _exported.set_folder(None)
+    yield
+    _exported.set_folder(kept)
+
+
 def _unique_budget():
     """A memory budget unique to this call (large enough not to change the chunks)."""
     return 256 * 2**20 + next(_unique)

@@ -104,13 +104,14 @@ _SCRIPT = textwrap.dedent("""
 
     results = dict(device_count=jax.device_count(), runs=[], draws=[])
     for method in methods:
-        results["runs"].append(compare(method, motion(method=method)))
+        if method != "high_speed" or draws:  # CI: high_speed on seed 004's radar only
+            results["runs"].append(compare(method, motion(method=method)))
         if method not in STRAIGHT:  # they refuse any motion, a batch too
             results["runs"].append(compare(method, motion(batch=8, method=method)))
         if method == "time_domain":
             results["runs"].append(compare(method, motion(batch=2)))  # a 2 x 2 mesh
             results["runs"].append(compare(method, motion(), devices=2))
-        if method == "small_deviation":  # columns of a grid over a 2 x 2 mesh
+        if method == "small_deviation" and draws:  # columns of a grid over a 2 x 2 mesh
             results["runs"].append(compare(method, motion(batch=2), scene=grid(30, 20)))
         if method == "high_speed":
             # seed 004's radar, whose Doppler band fills the PRF: the bin at −PRF/2 of an
@@ -172,13 +173,16 @@ def _check(results, methods):
         if method in ("small_deviation", "moderate_deviation", "fourier_2d", "high_speed"):
             # one scene: its range columns over the four devices, each left with a
             # block of the pulses; a batch: realizations first
-            assert runs[method, (45, 96), 4]["mesh"] == [1, 4]
-            assert runs[method, (45, 96), 4]["output_devices"] == 4
+            if (method, (45, 96), 4) in runs or method != "high_speed":
+                assert runs[method, (45, 96), 4]["mesh"] == [1, 4]
+                assert runs[method, (45, 96), 4]["output_devices"] == 4
+            if method == "high_speed":  # seed 004's radar
+                assert runs[method, (256, 1024), 4]["mesh"] == [1, 4]
             if method != "high_speed":  # (it refuses a batch of motions)
                 assert runs[method, (8, 45, 96), 4]["mesh"] == [4, 1]
         if method == "chirp_scaling":  # its transforms are not split: one device
             assert (method, (45, 96), 0) in runs
-    if "small_deviation" in methods:  # a grid's columns over 2 x 2
+    if "small_deviation" in methods and results["draws"]:  # a grid's columns over 2 x 2
         assert runs["small_deviation", (2, 45, 96), 4]["mesh"] == [2, 2]
     for run in results["draws"]:
         assert run["peak"] > 0 and run["relative"] <= RELATIVE, run
