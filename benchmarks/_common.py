@@ -69,38 +69,46 @@ def steady(fn, repeats):
     return Steady(best, statistics.median(walls), max(walls), cpu, walls)
 
 
+def captured_entry(call):
+    """(``_run``, args, kwargs): the jitted entry point behind ``call()`` and the
+    arguments ``simulate`` passes it, captured without running it (``_run`` swapped for a
+    spy for one call); args None when ``call`` did not reach it."""
+    from sarjax import _simulate
+
+    real = _simulate._run
+    captured = {}
+
+    class _Captured(Exception):
+        pass
+
+    def spy(*args, **kwargs):
+        captured["args"], captured["kwargs"] = args, kwargs
+        raise _Captured
+
+    _simulate._run = spy
+    try:
+        call()
+    except _Captured:
+        pass
+    finally:
+        _simulate._run = real
+    return real, captured.get("args"), captured.get("kwargs")
+
+
 def aot_compile_time(call):
     """(lower s, compile s) of the jitted entry point behind ``call()``, or None.
 
     ``simulate`` validates its inputs and then calls ``sarjax._simulate._run``
-    (an ``eqx.filter_jit``); the arguments are captured by swapping ``_run`` for a spy
-    for one call, then ``_run.lower(*args).compile()`` is timed. This reaches a private
-    name, so any failure falls back to "first call − steady".
+    (an ``eqx.filter_jit``); the arguments are captured (:func:`captured_entry`), then
+    ``_run.lower(*args).compile()`` is timed. This reaches a private name, so any
+    failure falls back to "first call − steady".
     """
     try:
-        from sarjax import _simulate
-
-        real = _simulate._run
-        captured = {}
-
-        class _Captured(Exception):
-            pass
-
-        def spy(*args, **kwargs):
-            captured["args"], captured["kwargs"] = args, kwargs
-            raise _Captured
-
-        _simulate._run = spy
-        try:
-            call()
-        except _Captured:
-            pass
-        finally:
-            _simulate._run = real
-        if "args" not in captured:
+        real, args, kwargs = captured_entry(call)
+        if args is None:
             return None
         t0 = time.perf_counter()
-        lowered = real.lower(*captured["args"], **captured["kwargs"])
+        lowered = real.lower(*args, **kwargs)
         t1 = time.perf_counter()
         lowered.compile()
         t2 = time.perf_counter()

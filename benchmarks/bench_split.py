@@ -51,42 +51,25 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(HERE))
-from _common import load_average, machine, replace_section, steady  # noqa: E402
+from _common import (  # noqa: E402
+    captured_entry,
+    load_average,
+    machine,
+    replace_section,
+    steady,
+)
 
 NAME = "bench_split"
 DEVICES = (1, 2, 4)
-
-
-def _captured_call(call):
-    """(args, kwargs) of the jitted entry point behind ``call()`` (not run)."""
-    from sarjax import _simulate
-
-    real, captured = _simulate._run, {}
-
-    class _Captured(Exception):
-        pass
-
-    def spy(*args, **kwargs):
-        captured["args"], captured["kwargs"] = args, kwargs
-        raise _Captured
-
-    _simulate._run = spy
-    try:
-        call()
-    except _Captured:
-        pass
-    finally:
-        _simulate._run = real
-    return real, captured["args"], captured["kwargs"]
 
 
 def child(args):
     """One device count in this process: compile, memory analysis, optionally a call."""
     import jax
     import jax.numpy as jnp
+    from bench_high_speed import FULL, QUICK, _radar, _scene
 
     import sarjax as sj
-    from bench_high_speed import FULL, QUICK, _radar, _scene
 
     cfg = QUICK if args["quick"] else FULL
     radar, scene = _radar(cfg), _scene(args["scene"])
@@ -97,7 +80,7 @@ def child(args):
 
     plan = sj.simulation_memory(radar, scene, method="high_speed",
                                 azimuth_padding=cfg["padding"], dtype=jnp.complex64)
-    run, a, k = _captured_call(call)
+    run, a, k = captured_entry(call)
     t0 = time.perf_counter()
     compiled = run.lower(*a, **k).compile()
     compile_s = time.perf_counter() - t0
