@@ -27,11 +27,12 @@ import functools
 import math
 from dataclasses import dataclass, field
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import antenna, geometry
+from .. import _exported, antenna, geometry
 from ..scene import PointTargets, ReflectivityGrid
 
 PHASE_THRESHOLD = 0.1  # [rad]
@@ -288,32 +289,71 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
         weight = np.abs(np.broadcast_to(gamma, np.shape(scene.azimuth)))[
             _sample_index(scene, xs.size)] ** 2
     n = acquisition.num_pulses
-    pulses = np.unique(np.linspace(0, n - 1, min(n, 1024)).astype(int))
-    x_p = centre + (pulses - (n - 1) / 2) * dx
+    pulses = np.unique(np.linspace(0, n - 1, min(n, _EDGE_PAIRS)).astype(int))
     dy, dz, _ = (np.asarray(v, float) for v in motion.resolve(n))
-    along = x_p[:, None] - xs[None, :]
-    los = np.asarray(geometry.line_of_sight_deviation(
-        dy[pulses, None], dz[pulses, None], rs[None, :], hs[None, :], float(radar.height)))
-    echo = rs[None, :] + np.asarray(geometry.range_offset(along, rs[None, :], los))
-    lam, length = float(radar.wavelength), float(radar.antenna_length)
-    t = math.tan(squint)
-    u = (length / lam) * (along / rs + t) / (1 - along * t / rs)
-    w = weight[None, :] * np.abs(np.asarray(antenna.evaluate(radar.pattern, u))) ** 2
-    position = (echo - near) / dr  # the echo's centre in samples of the window
-    sub = np.round((position - np.floor(position)) * steps).astype(int) % steps
-    ends = half / dr
-    last_sample = acquisition.num_range - 1
-    first = np.maximum(np.floor(position - ends) + 1, 0)
-    last = np.minimum(np.ceil(position + ends) - 1, last_sample)
-    recorded = np.maximum(last - first + 1, 0)
-    inside = lambda p: (p >= -0.5) & (p <= last_sample + 0.5)
-    error = inside(position - ends) * lead[sub] + inside(position + ends) * trail[sub]
-    total = float(np.sum(w * recorded))
-    value = float(np.sum(w * error)) / total if total > 0 else 0.0
+    # one compiled program of fixed shape (_EDGE_PAIRS pulses × _EDGE_PAIRS scatterers):
+    # padded pulses and scatterers carry zero weight
+    pulse_weight = _padded(np.ones(pulses.size), 0.0)
+    sample_weight = _padded(weight, 0.0)
+    constants = np.array([float(radar.height), float(radar.wavelength),
+                          float(radar.antenna_length), math.tan(squint), near, dr,
+                          half / dr, acquisition.num_range - 1.0])
+    error, recorded = (float(v) for v in _chirp_edge_sums(
+        radar.pattern, _padded(centre + (pulses - (n - 1) / 2) * dx),
+        _padded(dy[pulses]), _padded(dz[pulses]), pulse_weight, _padded(xs),
+        _padded(rs), _padded(hs), sample_weight, lead, trail, constants))
+    value = error / recorded if recorded > 0 else 0.0
     return (Budget("chirp_edges", value, CHIRP_EDGE_THRESHOLD,
                    f"raw error of the hard-edged chirp's recorded ends, relative to the "
                    f"recorded echo (Gibbs residual of {2 * int(aliases) + 1} summed range "
                    "spectra)"),)
+
+
+_EDGE_PAIRS = 1024  # pulses and scatterers of the chirp-edge estimate (at most)
+_EDGE_BLOCK = 32  # pulses per block of its program
+
+
+def _padded(values, fill=None):
+    """(_EDGE_PAIRS,) ``values`` padded with ``fill`` (default: their last value)."""
+    values = np.asarray(values, float)
+    tail = values[-1] if fill is None else fill
+    return np.concatenate([values, np.full(_EDGE_PAIRS - values.size, tail)])
+
+
+@_exported.cached
+@eqx.filter_jit
+def _chirp_edge_sums(pattern, x_p, dy, dz, pulse_weight, xs, rs, hs, weight, lead, trail,
+                     constants):
+    """(Σ w E, Σ w N) of :func:`chirp_edge_budget` over (pulse, scatterer) pairs, fused in
+    one program (NumPy formed a dozen (pulse, scatterer) temporaries)."""
+    height, lam, length, tan_d, near, dr, ends, last_sample = constants
+    steps = lead.shape[0]
+
+    def inside(p):
+        return (p >= -0.5) & (p <= last_sample + 0.5)
+
+    def block(pulses):
+        """The sums over a block of pulses (its temporaries stay in cache)."""
+        x_p, dy, dz, pulse_weight = pulses
+        along = x_p[:, None] - xs[None, :]
+        los = geometry.line_of_sight_deviation(dy[:, None], dz[:, None], rs[None, :],
+                                               hs[None, :], height)
+        echo = rs[None, :] + geometry.range_offset(along, rs[None, :], los)
+        u = (length / lam) * (along / rs[None, :] + tan_d) / (1 - along * tan_d / rs[None, :])
+        w = pulse_weight[:, None] * weight[None, :] * jnp.abs(pattern(u)) ** 2
+        position = (echo - near) / dr  # the echo's centre in samples of the window
+        sub = jnp.mod(jnp.round((position - jnp.floor(position)) * steps).astype(jnp.int32),
+                      steps)
+        first = jnp.maximum(jnp.floor(position - ends) + 1, 0)
+        last = jnp.minimum(jnp.ceil(position + ends) - 1, last_sample)
+        recorded = jnp.maximum(last - first + 1, 0)
+        error = inside(position - ends) * lead[sub] + inside(position + ends) * trail[sub]
+        return jnp.sum(w * error), jnp.sum(w * recorded)
+
+    rows = _EDGE_PAIRS // _EDGE_BLOCK
+    sums = jax.lax.map(block, tuple(v.reshape(rows, _EDGE_BLOCK)
+                                    for v in (x_p, dy, dz, pulse_weight)))
+    return jnp.sum(sums[0]), jnp.sum(sums[1])
 
 
 def _sample_index(scene, count):
@@ -396,6 +436,32 @@ def at_pulse(values, x, x_p, dx):
     return values[i0, cols] * (1 - t) + values[i1, cols] * t
 
 
+# the (pulse, scatterer) arrays of LobeGeometry, each one fused program (NumPy spent
+# ≈ 6 ms per array on 972 × 1024 pairs forming temporaries; these ≈ 1 ms); scalars are
+# passed as 0-d arrays, so that one program serves every value
+_line_of_sight_deviation = _exported.cached(eqx.filter_jit(geometry.line_of_sight_deviation))
+
+
+@_exported.cached
+@eqx.filter_jit
+def _in_main_lobe(along, rs, ratio, tan_d):
+    """|u| ≤ 1, ``u = (L/λ)(a/r + T)/(1 − aT/r)``."""
+    return jnp.abs(ratio * (along / rs + tan_d) / (1 - along * tan_d / rs)) <= 1.0
+
+
+@_exported.cached
+@eqx.filter_jit
+def _hypot(rs, along):
+    return jnp.sqrt(rs**2 + along**2)
+
+
+@_exported.cached
+@eqx.filter_jit
+def _deviated_range(along, rs, los):
+    """R = r + (R − r) (:func:`~sarjax.geometry.range_offset`)."""
+    return rs + geometry.range_offset(along, rs, los)
+
+
 class LobeGeometry:
     """Deviation terms of every (pulse, scatterer) pair within the squinted main lobe,
     ``|u| ≤ 1`` with ``u = (L/λ)(a/r + T)/(1 − aT/r)`` (``a = x' − x``, ``T = tan φ_d``),
@@ -430,16 +496,15 @@ class LobeGeometry:
 
     @functools.cached_property
     def lobe(self):
-        tan_d, rs = math.tan(self.squint), self.rs[None, :]
         ratio = float(self._radar.antenna_length) / self._lam
-        u = ratio * (self.along / rs + tan_d) / (1 - self.along * tan_d / rs)
-        return np.abs(u) <= 1.0
+        return np.asarray(_in_main_lobe(self.along, self.rs[None, :], np.asarray(ratio),
+                                        np.asarray(math.tan(self.squint))))
 
     @functools.cached_property
     def los(self):
-        return np.asarray(geometry.line_of_sight_deviation(
+        return np.asarray(_line_of_sight_deviation(
             self._dy[:, None], self._dz[:, None], self.rs[None, :], self._hs[None, :],
-            float(self._radar.height)))
+            np.asarray(float(self._radar.height))))
 
     @functools.cached_property
     def delta_r(self):
@@ -453,12 +518,11 @@ class LobeGeometry:
 
     @functools.cached_property
     def nominal(self):
-        return np.sqrt(self.rs[None, :] ** 2 + self.along**2)
+        return np.asarray(_hypot(self.rs[None, :], self.along))
 
     @functools.cached_property
     def exact(self):
-        rs = self.rs[None, :]
-        return rs + np.asarray(geometry.range_offset(self.along, rs, self.los))
+        return np.asarray(_deviated_range(self.along, self.rs[None, :], self.los))
 
     @functools.cached_property
     def cos_look(self):
