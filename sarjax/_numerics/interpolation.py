@@ -97,7 +97,9 @@ def sinc_interpolate_rows(table, positions, *, taps: int = 8):
     if width - period < taps or taps > period:
         raise ValueError(f"taps={taps} exceeds the table's guard ({width - period}) or "
                          f"period ({period})")
-    base, weights, _ = _sinc_weights(positions, taps)
+    # positions in float64 (a table row is hundreds of samples long); the kernel weights
+    # in the table's precision
+    base, weights, _ = _sinc_weights(positions, taps, jnp.finfo(values.dtype).dtype)
     # first tap of the window, in [0, period): the window then lies inside the row
     start = jnp.mod(base.astype(jnp.int32) - (taps // 2 - 1), period)
     rows = jnp.broadcast_to(jnp.arange(n_rows, dtype=jnp.int32), start.shape)
@@ -110,11 +112,14 @@ def sinc_interpolate_rows(table, positions, *, taps: int = 8):
     return jnp.sum(weights * window, axis=-1)
 
 
-def _sinc_weights(positions, taps):
-    """(floor(positions), (..., taps) kernel weights, (…, taps) integer tap offsets)."""
+def _sinc_weights(positions, taps, real_dtype=None):
+    """(floor(positions), (..., taps) kernel weights, (…, taps) integer tap offsets); the
+    weights in ``real_dtype`` (default: that of ``positions``)."""
     half = taps // 2
     base = jnp.floor(positions)
     frac = positions - base
+    if real_dtype is not None:
+        frac = frac.astype(real_dtype)
     offsets = jnp.arange(-half + 1, half + 1).reshape((1,) * positions.ndim + (taps,))
     distance = frac[..., None] - offsets  # (..., m, taps)
     sign = jnp.where(offsets % 2 == 0, 1.0, -1.0)

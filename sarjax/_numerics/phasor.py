@@ -90,3 +90,14 @@ def _unit_phasor_jvp(primals, tangents):
     out = unit_phasor(phase)
     return out, out * (1j * jnp.asarray(dphase, phase.dtype if hasattr(phase, "dtype") else
                                        jnp.result_type(float)))
+
+
+def reduced_phasor(phase, dtype):
+    """e^{jφ} of complex ``dtype`` for a float64 phase φ of any size: complex128 as
+    :func:`unit_phasor`; complex64 from φ reduced to [−π, π] in float64 and the float32
+    series (error ≤ 1e-6 whatever |φ|, where φ cast to float32 first would carry
+    6e-8·|φ|)."""
+    if jnp.dtype(dtype) == jnp.complex128:
+        return unit_phasor(phase)
+    turns = jnp.round(phase * (1 / (2 * np.pi)))
+    return unit_phasor((phase - turns * (2 * np.pi)).astype(jnp.float32))

@@ -36,7 +36,7 @@ import jax.numpy as jnp
 
 from .. import geometry
 from .._numerics.interpolation import next_fast_len
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
@@ -284,6 +284,7 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
         return SimpleNamespace(**{**vars(ctx), "xi": xi, "kz": jnp.sqrt(k0**2 - xi**2),
                                   "keep": keep})
 
+    ctx.work = jnp.dtype(dtype)
     total = engine.add_alias_bands(  # (η, x')
         _band(sim, plan, band_ctx(0), motion, acquisition, True, n_r, block),
         lambda k: _band(sim, plan, band_ctx(k), motion, acquisition, False, n_r, block),
@@ -295,7 +296,12 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
 def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
     """(n_r, num_pulses) range spectrum of one Doppler band on the pulses. Alias bands
     (``principal=False``, ≲ −25 dB of the echo) take the main range band and the pattern's
-    zeroth pointing term only."""
+    zeroth pointing term only.
+
+    Precision (``ctx.work``): the scene's and the track's factors are formed in float64 /
+    complex128; the tables, the range synthesis, the transforms and the sums run in the
+    output's dtype, with the phases (κ r, η r'_0, the per-pulse motion phase) formed in
+    float64 and reduced before a complex64 phasor (``reduced_phasor``)."""
     track, radar, prepared, ranges = sim.track, ctx.radar, ctx.prepared, ctx.ranges
     xi, k0, n_x, n_pulses = ctx.xi, ctx.k0, ctx.n_x, ctx.n_pulses
     _, _, pointing = motion.resolve(n_pulses)
@@ -327,14 +333,18 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
         spectrum = gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - ctx.x0))
     if not grid_2d:
         sets = track.line_sets(ctx, sim, spectrum, column_weight, weights)
+    work = ctx.work
+    real = jnp.finfo(work).dtype
     if sets is None:  # the pattern is a per-ξ factor: one set, weighted per order
         eta_set = None
         if grid_2d:
-            tables = [engine.grid_spectrum_dtft(gamma, n_x)]
+            tables = [engine.grid_spectrum_dtft(gamma.astype(work), n_x)]
         else:
+            spectrum = spectrum.astype(work)
             tables = [engine.grid_dtft(spectrum) if gridded else spectrum]
     else:
         line_sets, eta_set = sets
+        line_sets, eta_set = [s.astype(work) for s in line_sets], eta_set.astype(work)
         tables = [engine.grid_dtft(lines) if gridded else lines for lines in line_sets]
         if gridded:
             eta_set = engine.grid_dtft(eta_set)
@@ -365,10 +375,11 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
             for q in range(n_terms if sets is not None else 1):
                 rel, r_ref = synth(tables[q])
                 if q == 0 and eta_set is not None:
-                    rel = rel + eta_block[:, None] * synth(eta_set)[0]
+                    rel = rel + eta_block.astype(real)[:, None] * synth(eta_set)[0]
                 out.append(rel)
             factor = engine.chirp_spectrum(radar, eta_block) * unit_phasor(eta_block * near)
-            phase = unit_phasor(-kappa * r_ref) * (factor / radar.range_spacing)[:, None]
+            phase = (reduced_phasor(-kappa * r_ref, work)
+                     * (factor / radar.range_spacing).astype(work)[:, None])
             return [rel * phase for rel in out]
 
         if sets is not None:

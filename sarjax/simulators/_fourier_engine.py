@@ -37,7 +37,7 @@ from .._numerics.interpolation import (
     periodic_rows,
     sinc_interpolate_rows,
 )
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import PointTargets, ReflectivityGrid
 
 _TWO_PI = 2 * jnp.pi
@@ -154,7 +154,7 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
     def body(acc, block):
         f, r = block  # (chunk, n_x), (chunk,)
         phase = kappa[None, :, :] * (r - r_ref)[:, None, None]
-        return acc + jnp.sum(f[:, None, :] * unit_phasor(-phase), axis=0), None
+        return acc + jnp.sum(f[:, None, :] * reduced_phasor(-phase, lines.dtype), axis=0), None
 
     init = jnp.zeros(kappa.shape, lines.dtype)
     out, _ = jax.lax.scan(body, init, (lines_p, ranges_p))
@@ -344,14 +344,16 @@ def _columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, p
         groups.setdefault(index, []).append((weight, power))
 
     def along_track(values, eta_block, weight, power):
-        """IFFT_ξ[values · weight] on the acquired pulses, times the per-pulse power."""
+        """IFFT_ξ[values · weight] on the acquired pulses, times the per-pulse power (in
+        the precision of ``values``)."""
+        real = jnp.finfo(values.dtype).dtype
         if isinstance(weight, tuple):
-            a, b = weight
-            values = values * (a[None, :] + eta_block[:, None] * b[None, :])
+            a, b = (w.astype(values.dtype) for w in weight)
+            values = values * (a[None, :] + eta_block.astype(real)[:, None] * b[None, :])
         elif weight is not None:
-            values = values * weight[None, :]
+            values = values * weight.astype(values.dtype)[None, :]
         along = jnp.fft.ifft(values, axis=1)[:, pad:pad + num_pulses]
-        return along if power is None else along * power[None, :]
+        return along if power is None else along * power.astype(real)[None, :]
 
     def stacked(weights, n_x):
         """The weights of a group as one (terms, n_x) array, or a pair of them."""
@@ -382,7 +384,8 @@ def _columns_to_pulses(produce, terms, eta, delta_r, scale_powers, wavenumber, p
             zero = jnp.zeros((values.shape[0], num_pulses), values.dtype)
             acc = acc + jax.lax.scan(term, zero, (weights, powers))[0]
         if delta_r is not None:
-            acc = acc * unit_phasor(-(eta_block[:, None] + wavenumber) * delta_r[None, :])
+            acc = acc * reduced_phasor(-(eta_block[:, None] + wavenumber) * delta_r[None, :],
+                                       acc.dtype)
         return acc
 
     # one compiled body for every block: the columns are padded (with the last η, cut
