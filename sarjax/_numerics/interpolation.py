@@ -114,16 +114,27 @@ def sinc_interpolate_rows(table, positions, *, taps: int = 8):
 
 def _sinc_weights(positions, taps, real_dtype=None):
     """(floor(positions), (..., taps) kernel weights, (…, taps) integer tap offsets); the
-    weights in ``real_dtype`` (default: that of ``positions``)."""
+    weights in ``real_dtype`` (default: that of ``positions``).
+
+    The distances are formed from the offset ``g ∈ [−½, ½)`` to the *nearest* sample
+    (in the positions' precision, float64), so that the tap next to the position and
+    ``sin πf = ±sin πg`` keep full relative precision in float32 too: from ``f ∈ [0, 1)``
+    cast to float32, ``f − 1`` and ``sin πf`` near ``f = 1`` carried an absolute error
+    of ~1e-7 on values of 1e-5, weights off by up to 8e-3.
+    """
     half = taps // 2
     base = jnp.floor(positions)
     frac = positions - base
+    upper = frac >= 0.5
+    near = jnp.where(upper, frac - 1.0, frac)  # g: the offset to the nearest sample
     if real_dtype is not None:
-        frac = frac.astype(real_dtype)
+        near = near.astype(real_dtype)
     offsets = jnp.arange(-half + 1, half + 1).reshape((1,) * positions.ndim + (taps,))
-    distance = frac[..., None] - offsets  # (..., m, taps)
-    sign = jnp.where(offsets % 2 == 0, 1.0, -1.0)
-    sin_term = sine(jnp.pi * frac)[..., None] * sign
+    # d = f − o = g − (o − [f ≥ ½]); sin π(f − o) = (−1)^(o − [f ≥ ½]) sin πg
+    step = offsets - upper[..., None].astype(offsets.dtype)
+    distance = near[..., None] - step.astype(near.dtype)  # (..., m, taps)
+    sign = jnp.where(step % 2 == 0, 1.0, -1.0).astype(near.dtype)
+    sin_term = sine(jnp.pi * near)[..., None] * sign
     tiny = jnp.abs(distance) < 1e-12
     sinc = jnp.where(tiny, 1.0, sin_term / (jnp.pi * jnp.where(tiny, 1.0, distance)))
     window = jnp.clip(1.0 - (distance / half) ** 2, 0.0, 1.0) ** 3

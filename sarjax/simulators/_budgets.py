@@ -259,7 +259,7 @@ def chirp_edge_error(chirp_rate, half_length, range_spacing, aliases, steps=64):
 def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budget, ...]:
     """``chirp_edges``: the raw error the hard-edged chirp's ends leave in a Fourier-domain
     synthesis (:func:`chirp_edge_error`), relative to the recorded echo energy: over the
-    window's pulses (at most 1024) and the scene's scatterers (:func:`scene_samples`),
+    window's pulses (at most 256) and the scene's scatterers (:func:`scene_samples`),
     ``Σ w E / Σ w N``, with E the error of each end the range window records, N the
     chirp samples it records and w = |γ W²(u)|² the echo's energy weight.
 
@@ -289,19 +289,21 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
         weight = np.abs(np.broadcast_to(gamma, np.shape(scene.azimuth)))[
             _sample_index(scene, xs.size)] ** 2
     n = acquisition.num_pulses
-    pulses = np.unique(np.linspace(0, n - 1, min(n, _EDGE_PAIRS)).astype(int))
+    pulses = np.unique(np.linspace(0, n - 1, min(n, _EDGE_PULSES)).astype(int))
     dy, dz, _ = (np.asarray(v, float) for v in motion.resolve(n))
-    # one compiled program of fixed shape (_EDGE_PAIRS pulses × _EDGE_PAIRS scatterers):
-    # padded pulses and scatterers carry zero weight
-    pulse_weight = _padded(np.ones(pulses.size), 0.0)
-    sample_weight = _padded(weight, 0.0)
+    # one compiled program of fixed shape (_EDGE_PULSES × _EDGE_SCATTERERS): padded
+    # pulses and scatterers carry zero weight
+    along, across = (functools.partial(_padded, size=s) for s in (_EDGE_PULSES,
+                                                                 _EDGE_SCATTERERS))
+    pulse_weight = along(np.ones(pulses.size), fill=0.0)
+    sample_weight = across(weight, fill=0.0)
     constants = np.array([float(radar.height), float(radar.wavelength),
                           float(radar.antenna_length), math.tan(squint), near, dr,
                           half / dr, acquisition.num_range - 1.0])
     error, recorded = (float(v) for v in _chirp_edge_sums(
-        radar.pattern, _padded(centre + (pulses - (n - 1) / 2) * dx),
-        _padded(dy[pulses]), _padded(dz[pulses]), pulse_weight, _padded(xs),
-        _padded(rs), _padded(hs), sample_weight, lead, trail, constants))
+        radar.pattern, along(centre + (pulses - (n - 1) / 2) * dx), along(dy[pulses]),
+        along(dz[pulses]), pulse_weight, across(xs), across(rs), across(hs),
+        sample_weight, lead, trail, constants))
     value = error / recorded if recorded > 0 else 0.0
     return (Budget("chirp_edges", value, CHIRP_EDGE_THRESHOLD,
                    f"raw error of the hard-edged chirp's recorded ends, relative to the "
@@ -309,15 +311,18 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
                    "spectra)"),)
 
 
-_EDGE_PAIRS = 1024  # pulses and scatterers of the chirp-edge estimate (at most)
+# pulses and scatterers of the chirp-edge estimate (at most): an energy-weighted mean over
+# the sub-sample positions of the chirp ends, within 0.2 % of its value over 1024 pulses
+_EDGE_PULSES = 256
+_EDGE_SCATTERERS = 1024
 _EDGE_BLOCK = 32  # pulses per block of its program
 
 
-def _padded(values, fill=None):
-    """(_EDGE_PAIRS,) ``values`` padded with ``fill`` (default: their last value)."""
+def _padded(values, size, fill=None):
+    """(size,) ``values`` padded with ``fill`` (default: their last value)."""
     values = np.asarray(values, float)
     tail = values[-1] if fill is None else fill
-    return np.concatenate([values, np.full(_EDGE_PAIRS - values.size, tail)])
+    return np.concatenate([values, np.full(size - values.size, tail)])
 
 
 @_exported.cached
@@ -350,7 +355,7 @@ def _chirp_edge_sums(pattern, x_p, dy, dz, pulse_weight, xs, rs, hs, weight, lea
         error = inside(position - ends) * lead[sub] + inside(position + ends) * trail[sub]
         return jnp.sum(w * error), jnp.sum(w * recorded)
 
-    rows = _EDGE_PAIRS // _EDGE_BLOCK
+    rows = _EDGE_PULSES // _EDGE_BLOCK
     sums = jax.lax.map(block, tuple(v.reshape(rows, _EDGE_BLOCK)
                                     for v in (x_p, dy, dz, pulse_weight)))
     return jnp.sum(sums[0]), jnp.sum(sums[1])

@@ -328,9 +328,10 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
     column_weight = engine.stationary_amplitude(radar, xi, 1.0) * ctx.keep
     if prepared.gridded:
         column_weight = column_weight * engine.grid_azimuth_ramp(prepared.azimuth, ctx.x0, xi)
-        spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma, n_x)
+        spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma.astype(ctx.work), n_x)
     else:
-        spectrum = gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - ctx.x0))
+        spectrum = (gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - ctx.x0))
+                    ).astype(ctx.work)
     if not grid_2d:
         sets = track.line_sets(ctx, sim, spectrum, column_weight, weights)
     work = ctx.work
@@ -340,11 +341,9 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
         if grid_2d:
             tables = [engine.grid_spectrum_dtft(gamma.astype(work), n_x)]
         else:
-            spectrum = spectrum.astype(work)
             tables = [engine.grid_dtft(spectrum) if gridded else spectrum]
     else:
         line_sets, eta_set = sets
-        line_sets, eta_set = [s.astype(work) for s in line_sets], eta_set.astype(work)
         tables = [engine.grid_dtft(lines) if gridded else lines for lines in line_sets]
         if gridded:
             eta_set = engine.grid_dtft(eta_set)

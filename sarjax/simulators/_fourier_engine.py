@@ -617,8 +617,10 @@ def coupled_inverse(lines, los, alpha, order):
     """(n_lines, n_x) ``Σ_ξ Y(ξ) e^{jξx'} e^{−jα(ξ) δ(x')}`` by a Taylor series of order
     ``order`` in ``δ − δ̄`` (δ̄ the mean over pulses of each line)."""
     mean = jnp.mean(los, axis=1, keepdims=True)  # (n_lines, 1)
-    base = lines * unit_phasor(-alpha[None, :] * mean)
-    delta = los - mean
+    base = lines * reduced_phasor(-alpha[None, :] * mean, lines.dtype)
+    real = jnp.finfo(lines.dtype).dtype
+    delta = (los - mean).astype(real)
+    alpha = alpha.astype(real)
     out = jnp.fft.ifft(base, axis=1)
     term = base
     coef = jnp.ones_like(delta, dtype=base.dtype)

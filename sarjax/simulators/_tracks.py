@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor
 from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractSimulator
@@ -212,7 +212,9 @@ class ModerateDeviationTrack(AbstractTrack):
         """Along-track part of B for one line set (n_lines, n_x); with ``envelope`` the
         first-order envelope lines ``s(ξ) ψ + R′(ξ) k₀ cos φ_d ∂ψ/∂x'`` instead."""
         k0, kz, xi, ranges = ctx.k0, ctx.kz, ctx.xi, ctx.ranges
-        lines = lines * unit_phasor(-(kz - k0)[None, :] * ranges[:, None])
+        work = lines.dtype  # phases in float64, reduced before a phasor of this precision
+        real = jnp.finfo(work).dtype
+        lines = lines * reduced_phasor(-(kz - k0)[None, :] * ranges[:, None], work)
         fill = (ctx.pad, ctx.n_x - ctx.n_pulses - ctx.pad)
         dy_full = jnp.pad(ctx.horizontal, fill, mode="edge")
         dz_full = jnp.pad(ctx.vertical, fill, mode="edge")
@@ -229,24 +231,23 @@ class ModerateDeviationTrack(AbstractTrack):
             along = engine.coupled_inverse(lines, los, kz - k0 * ctx.cos_d, sim.coupling_order)
         else:
             along = jnp.fft.ifft(lines, axis=1)  # (line, x'): the seed's B
-        along = along * unit_phasor(-k0 * ctx.cos_d * psi)
+        along = along * reduced_phasor(-k0 * ctx.cos_d * psi, work)
         if not envelope:
             return jnp.fft.fft(along, axis=1)
-        slope = jnp.gradient(psi, axis=1) / ctx.dx
-        spread = (k0 / kz)[None, :] * jnp.fft.fft(along * psi, axis=1)
-        migration = (k0 * ctx.cos_d) * ranges[:, None] * (k0 * xi / kz**3)[None, :]
+        slope = (jnp.gradient(psi, axis=1) / ctx.dx).astype(real)
+        spread = (k0 / kz).astype(real)[None, :] * jnp.fft.fft(along * psi.astype(real), axis=1)
+        migration = ((k0 * ctx.cos_d) * ranges[:, None] * (k0 * xi / kz**3)[None, :]).astype(real)
         return spread + migration * jnp.fft.fft(along * slope, axis=1)
 
     def line_sets(self, ctx, sim, spectrum, column_weight, weights):
         # per pointing order (the pattern precedes the motion phase), and the set the
         # synthesis multiplies by η: the pattern's η-slope, −j × the envelope lines
-        sets = [self._lines(ctx, sim, spectrum * (column_weight * w)[None, :], False)
-                for w, _ in weights]
-        eta_set = self._lines(ctx, sim, spectrum * (column_weight * weights[0][1])[None, :],
-                              False)
+        # in the spectrum's precision: the per-ξ weights cast to it
+        weighted = lambda w: spectrum * (column_weight * w).astype(spectrum.dtype)[None, :]
+        sets = [self._lines(ctx, sim, weighted(w), False) for w, _ in weights]
+        eta_set = self._lines(ctx, sim, weighted(weights[0][1]), False)
         if sim.envelope_correction:
-            base = spectrum * (column_weight * weights[0][0])[None, :]
-            eta_set = eta_set - 1j * self._lines(ctx, sim, base, True)
+            eta_set = eta_set - 1j * self._lines(ctx, sim, weighted(weights[0][0]), True)
         return sets, eta_set
 
     def phase_budgets(self, sim, lobe):
