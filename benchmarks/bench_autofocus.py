@@ -39,6 +39,7 @@ import numpy as np
 
 import sarjax as sj
 from sarjax.inverse import _autofocus as af
+from sarjax.inverse import _autofocus_bound as bound
 from sarjax.inverse import _sharpness
 
 HERE = Path(__file__).resolve().parent
@@ -65,7 +66,25 @@ def draw(seed, *, rms=0.02, max_cycles=2.0, snr_db=10.0):
     data = data + np.sqrt(noise_power / 2) * (rng.normal(size=data.shape)
                                               + 1j * rng.normal(size=data.shape))
     raw = sj.RawData(data=data, azimuth=parts[0].azimuth, range=parts[0].range)
-    return radar, raw, truth, points
+    return radar, raw, truth, points, (np.asarray(parts[0].data), np.asarray(parts[1].data),
+                                       noise_power)
+
+
+def genie_bounds(radar, raw, parts):
+    """Known-scene Cramér–Rao references per range block [rad]: ``scene`` (clutter and
+    points known, only the noise) and ``points`` (the points known, the clutter counted as
+    interference); the model-based estimator's B-spline size."""
+    clutter, pts, noise_power = parts
+    x = np.asarray(raw.azimuth)
+    num_basis = af._default_model(radar, x).horizontal.num_basis()
+    blocks = af.range_blocks(radar, raw.range)
+    out = {}
+    for name, signal, interference in (("scene", clutter + pts, None),
+                                       ("points", pts, clutter)):
+        info, ranges = bound.phase_information(radar, signal, noise_power, raw.azimuth,
+                                               raw.range, interference=interference)
+        out[name] = bound.phase_bound(radar, info, ranges, num_basis, blocks)
+    return out
 
 
 def brightest_points(points, raw, radar, count=3):
@@ -145,6 +164,10 @@ def table(rows, info, complete, draws):
         lines.append(f"| {row['seed']} | single-history floor | {fmt(row['floor'])} | | | | "
                      "| |")
         lines.append(f"| {row['seed']} | no correction | {fmt(row['none'])} | | | | | |")
+        lines.append(f"| {row['seed']} | CRB, scene known | {fmt(row['bounds']['scene'], 5)} | "
+                     "| | | | |")
+        lines.append(f"| {row['seed']} | CRB, points known | {fmt(row['bounds']['points'], 4)}"
+                     " | | | | | |")
     if rows:
         ok = sum(bool(np.all(r["model"]["aperture"] <= 0.02)) for r in rows)
         med = np.median([r["model"]["aperture"] for r in rows], axis=0)
@@ -167,12 +190,13 @@ def main():
     rows = []
     for seed in range(100, 100 + draws):
         t0 = time.perf_counter()
-        radar, raw, truth, points = draw(seed)
+        radar, raw, truth, points, parts = draw(seed)
         print(f"draw {seed}: simulated in {time.perf_counter() - t0:.0f} s "
               f"(load {load_average():.1f})", flush=True)
         reference = sj.focus(radar, raw, motion=truth)
         where = brightest_points(points, raw, radar)
         row = dict(seed=seed, floor=single_history_floor(radar, raw, truth),
+                   bounds=genie_bounds(radar, raw, parts),
                    none=af.residual_phase_rms(radar, af.no_estimate(raw), truth,
                                               af.range_blocks(radar, raw.range)))
         with warnings.catch_warnings():

@@ -244,3 +244,26 @@ def test_full_size_autofocus_improves_on_no_correction_and_runs_in_two_minutes()
     after = af.residual_phase_rms(radar, result, truth, blocks)
     assert np.all(after <= 0.5 * before), (after, before)
     assert seconds <= 150.0
+
+
+def test_genie_bound_scales_with_the_noise(radar):
+    """The known-scene Cramér–Rao reference of ``_autofocus_bound``: finite, positive, and
+    10× lower for 100× less noise (the information is 2|s|²/σ²); counting a second scene as
+    interference raises it."""
+    from sarjax.inverse import _autofocus_bound as bound
+
+    scene = _scene(radar, 6)
+    clean = sj.simulate(radar, scene, sj.Motion(), method="time_domain_nufft")
+    signal = np.asarray(clean.data)
+    noise = float(np.mean(np.abs(signal) ** 2)) / 10
+    blocks = af.range_blocks(radar, clean.range)
+    x = np.asarray(clean.azimuth)
+    values = []
+    for power in (noise, noise / 100):
+        info, ranges = bound.phase_information(radar, signal, power, x, clean.range)
+        values.append(bound.phase_bound(radar, info, ranges, 16, blocks))
+    assert np.all(np.isfinite(values[0])) and np.all(values[0] > 0)
+    np.testing.assert_allclose(values[1], values[0] / 10, rtol=1e-3)
+    info, ranges = bound.phase_information(radar, signal, noise, x, clean.range,
+                                           interference=signal)
+    assert np.all(bound.phase_bound(radar, info, ranges, 16, blocks) > values[0])

@@ -36,7 +36,7 @@ method = "time_domain"
 """
 
 COMMANDS = ("demo", "simulate", "focus", "metrics", "fit", "check", "config", "export",
-            "plot", "launch")
+            "plot", "launch", "autofocus")
 
 
 def _shell(*args, cwd):

@@ -198,7 +198,10 @@ def motion_increment(products, rows, focuser: AzimuthFocuser, design, *, current
         cy0, cz0 = (np.asarray(c, float) for c in current)
         held = np.r_[-cy0 * np.sin(look0) + cz0 * np.cos(look0),
                      cy0 * np.cos(look0) + cz0 * np.sin(look0)]
-    slope = np.zeros(z.shape[0])
+    # each scatterer's mean gradient first: an offset δx of its window centre from its
+    # position adds the constant gradient k₀ δx Δx'/r (≈ 0.75 rad per pulse for 37 m on the
+    # airborne set), which the first solve would otherwise take into the motion
+    slope = np.angle(np.sum(z, axis=1))
     coef = np.zeros(a.shape[1])
     for _ in range(iterations):
         phase = np.angle(z[k_idx, p_idx] * np.exp(-1j * slope[k_idx]))
