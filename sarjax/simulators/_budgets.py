@@ -279,7 +279,6 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
         return ()
     b, half, dr, dx, squint, near, centre = (float(v) for v in values)
     lead, trail = chirp_edge_error(b, half, dr, int(aliases))
-    steps = lead.size
     xs, rs, hs = scene_samples(scene)
     weight = np.ones_like(xs)
     if isinstance(scene, PointTargets):
