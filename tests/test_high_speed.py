@@ -274,3 +274,25 @@ def test_moving_target_shift_table3(degrees, velocities, method):
     :func:`_shift_case` for what the 30° measurement needs)."""
     measured, theory = _shift_case(degrees, velocities, method)
     _check_shift(measured, theory)
+
+
+@pytest.mark.parametrize(("chirp", "columns"), [(40e-6, "none"), (1e-6, "some")])
+def test_range_aliases_only_on_the_columns_the_chirp_spectrum_reaches(chirp, columns):
+    """seed 004's radar (720 MHz): the 40 µs chirp's spectrum leaves ≤ −45 dB past ±f_s/2,
+    so no alias column is synthesised (a third of the work of summing m = −1, 0, 1 on
+    every column); a 1 µs chirp's Fresnel ripple reaches part of the band; a tolerance of
+    0 keeps every column."""
+    fs = 720e6
+    radar = sj.presets.highspeed_xband(num_pulses=256, num_range=2048, chirp_duration=chirp,
+                                       near_range=800e3 - 1024 * SPEED_OF_LIGHT / (2 * fs))
+    scene = sj.PointTargets(azimuth=[0.0], range=[800e3])
+    acq = sj.Acquisition(num_pulses=256, num_range=2048, near_range=radar.near_range,
+                         azimuth_center=0.0)
+    plan = sj.simulators.HighSpeed().prepare(radar, scene, acq)
+    n_r = plan.range_fft_size
+    if columns == "none":
+        assert plan.alias_columns == 0
+    else:
+        assert 0 < plan.alias_columns < n_r
+    every = sj.simulators.HighSpeed(alias_tolerance=1e-300).prepare(radar, scene, acq)
+    assert every.alias_columns >= n_r // 2

@@ -551,7 +551,8 @@ def _alias_column_count(chirp_rate, half_length, range_spacing, n_r, tolerance):
     left_out = alias.sum() - np.cumsum(alias)  # energy beyond the first k + 1 columns
     if alias.sum() <= tolerance * main.sum():
         return 0
-    return int(np.flatnonzero(left_out <= tolerance * main.sum())[0] + 1)
+    enough = np.flatnonzero(left_out <= tolerance * main.sum())
+    return int(enough[0] + 1) if enough.size else int(n_r)  # else: every column
 
 
 
