@@ -43,7 +43,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .. import geometry
+from .. import _exported, geometry
 from .._numerics.phasor import reduced_phasor, unit_phasor
 from . import _extent as extent
 from . import _fourier_engine as engine
@@ -52,7 +52,6 @@ from ._budgets import (
     PHASE_THRESHOLD,
     Budget,
     LobeGeometry,
-    at_pulse,
     azimuth_budgets,
     pointing_budget,
 )
@@ -163,6 +162,35 @@ def straight_track_budgets(radar, scene, motion, acquisition):
     return StraightTrack().approximation_budgets(None, radar, lobe)
 
 
+def _lobe_peak(lobe, values):
+    """max |values| over the main lobe (0 if no pair is in it)."""
+    return jnp.max(jnp.abs(jnp.where(lobe, values, 0.0)), initial=0.0)
+
+
+@_exported.cached
+@eqx.filter_jit
+def _small_deviation_maxima(along, rs, los, delta_r, lobe, beam_pulse, c_d):
+    """Algorithm A's three lobe maxima over the (pulse, scatterer) pairs, in one fused
+    program: max|R − R_n − cos φ_d δr_xr|, max(|ψ|/c + |δr||1/c − 1/c_d|) and
+    max|ψ(x', r) − ψ(x_c, r)| (``c = r/R_n``; ``beam_pulse`` the beam-centre pulse of
+    each scatterer in pulse spacings from the first, ψ interpolated there as
+    ``_budgets.at_pulse``)."""
+    nominal = jnp.sqrt(rs**2 + along**2)
+    exact = rs + geometry.range_offset(along, rs, los)
+    cos_look = rs / nominal
+    psi = los - delta_r
+    n = psi.shape[0]
+    position = jnp.clip(beam_pulse, 0.0, n - 1.0)
+    i0 = jnp.minimum(jnp.floor(position).astype(jnp.int32), max(n - 2, 0))
+    t = position - i0
+    cols = jnp.arange(psi.shape[1])
+    psi_beam = psi[i0, cols] * (1 - t) + psi[jnp.minimum(i0 + 1, n - 1), cols] * t
+    return (_lobe_peak(lobe, exact - nominal - c_d * los),
+            _lobe_peak(lobe, jnp.abs(psi) / cos_look
+                       + jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)),
+            _lobe_peak(lobe, psi - psi_beam[None, :]))
+
+
 class SmallDeviationTrack(AbstractTrack):
     """Small deviations, "Algorithm A" (seed 000 §2.1, §3.1; seed 002 §2, Fig. 3)."""
 
@@ -181,20 +209,45 @@ class SmallDeviationTrack(AbstractTrack):
 
     def phase_budgets(self, sim, lobe):
         c_d = math.cos(lobe.squint)
-        slope_mismatch = np.abs(lobe.delta_r) * np.abs(1 / lobe.cos_look - 1 / c_d)
-        psi_beam = at_pulse(lobe.psi, lobe.xs - lobe.rs * math.tan(lobe.squint), lobe.x_p,
-                            lobe.dx)  # ψ at the beam-centre pulse
+        # ψ at the beam-centre pulse x_c = x − r tan φ_d of each scatterer
+        x_beam = lobe.xs - lobe.rs * math.tan(lobe.squint)
+        coupling, envelope, variation = (float(v) for v in _small_deviation_maxima(
+            lobe.along, lobe.rs[None, :], lobe.los, lobe.delta_r, lobe.lobe,
+            np.asarray((x_beam - lobe.x_p[0]) / lobe.dx), np.asarray(c_d)))
         return [
-            Budget("epsilon_11", lobe.k0 * lobe.lobe_max(lobe.exact - lobe.nominal
-                                                         - c_d * lobe.los),
+            Budget("epsilon_11", lobe.k0 * coupling,
                    PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"),
-            Budget("epsilon_12", lobe.eta_max * lobe.lobe_max(
-                np.abs(lobe.psi) / lobe.cos_look + slope_mismatch), PHASE_THRESHOLD,
-                "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)"),
-            Budget("epsilon_13", lobe.k0 * c_d * lobe.lobe_max(lobe.psi - psi_beam[None, :]),
-                   PHASE_THRESHOLD,
+            Budget("epsilon_12", lobe.eta_max * envelope, PHASE_THRESHOLD,
+                   "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)"),
+            Budget("epsilon_13", lobe.k0 * c_d * variation, PHASE_THRESHOLD,
                    "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed eq. 13; seed 002 eq. 10)"),
         ]
+
+
+@_exported.cached
+@eqx.filter_jit
+def _moderate_deviation_maxima(along, rs, los, delta_r, lobe, constants):
+    """Algorithm B's lobe maxima over the (pulse, scatterer) pairs, in one fused program:
+    max|R − R_n − δr_xr c|, the spread max|δr_xr − mean over pulses|,
+    max|R − R_n − cos φ_d δr_xr|, and the envelope terms' maxima (corrected, uncorrected,
+    their sum); ``c = r/R_n``, slopes along the pulses as ``numpy.gradient``."""
+    k0, c_d, dx = constants
+    nominal = jnp.sqrt(rs**2 + along**2)
+    exact = rs + geometry.range_offset(along, rs, los)
+    cos_look = rs / nominal
+    psi = los - delta_r
+    # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n
+    alpha = jnp.abs(jnp.sqrt(k0**2 - (k0 * along / nominal) ** 2) - k0 * c_d)
+    los_slope = jnp.gradient(los, dx, axis=0)
+    psi_slope = jnp.gradient(psi, dx, axis=0)
+    corrected = jnp.abs(psi) / cos_look + c_d * jnp.abs(along * psi_slope) / cos_look**2
+    uncorrected = (jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)
+                   + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2))
+    return (_lobe_peak(lobe, exact - nominal - los * cos_look),
+            _lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
+            _lobe_peak(lobe, exact - nominal - c_d * los),
+            _lobe_peak(lobe, corrected), _lobe_peak(lobe, uncorrected),
+            _lobe_peak(lobe, corrected + uncorrected))
 
 
 class ModerateDeviationTrack(AbstractTrack):
@@ -254,34 +307,26 @@ class ModerateDeviationTrack(AbstractTrack):
         squint = lobe.squint
         c_d = math.cos(squint)
         k0, dx = lobe.k0, lobe.dx
-        exact_rest = k0 * lobe.lobe_max(lobe.exact - lobe.nominal - lobe.los * lobe.cos_look)
+        maxima = _moderate_deviation_maxima(lobe.along, lobe.rs[None, :], lobe.los,
+                                            lobe.delta_r, lobe.lobe,
+                                            np.asarray([k0, c_d, dx]))
+        rest, spread, straight, corrected, uncorrected, both = (float(v) for v in maxima)
         if sim.coupling_order:
             xi_band = k0 * math.sin(squint) + np.linspace(-np.pi / dx, np.pi / dx, 257)
             alpha_max = float(np.max(np.abs(np.sqrt(k0**2 - xi_band**2) - k0 * c_d)))
-            spread = lobe.lobe_max(lobe.los - np.mean(lobe.los, axis=0, keepdims=True))
             value = (alpha_max * spread) ** (sim.coupling_order + 1) / math.factorial(
-                sim.coupling_order + 1) + exact_rest
+                sim.coupling_order + 1) + k0 * rest
             meaning = f"coupling after its order-{sim.coupling_order} correction"
         else:
-            value = k0 * lobe.lobe_max(lobe.exact - lobe.nominal - c_d * lobe.los)
+            value = k0 * straight
             meaning = "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"
         budgets = [Budget("epsilon_11", value, PHASE_THRESHOLD, meaning)]
-        # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n
-        alpha = np.abs(np.sqrt(k0**2 - (k0 * lobe.along / lobe.nominal) ** 2) - k0 * c_d)
-        los_slope = np.gradient(lobe.los, dx, axis=0)
-        psi_slope = np.gradient(lobe.psi, dx, axis=0)
-        cos_look = lobe.cos_look
-        corrected = np.abs(lobe.psi) / cos_look + c_d * np.abs(lobe.along * psi_slope) / (
-            cos_look**2)
-        uncorrected = (np.abs(lobe.delta_r) * np.abs(1 / cos_look - 1 / c_d)
-                       + np.abs(lobe.along) * alpha * np.abs(los_slope) / (k0 * cos_look**2))
         eta_max = lobe.eta_max
         if sim.envelope_correction:
-            value = (eta_max * lobe.lobe_max(corrected)) ** 2 / 2 + eta_max * lobe.lobe_max(
-                uncorrected)
+            value = (eta_max * corrected) ** 2 / 2 + eta_max * uncorrected
             meaning = "envelope terms after the first-order correction"
         else:
-            value = eta_max * lobe.lobe_max(corrected + uncorrected)
+            value = eta_max * both
             meaning = "η_max max(envelope terms) (seed eq. 12; seed 002 eq. 11)"
         budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning))
         return budgets
