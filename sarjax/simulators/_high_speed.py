@@ -62,7 +62,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics.interpolation import next_fast_len, sinc_interpolate
+from .._numerics.interpolation import next_fast_len, periodic_rows, sinc_interpolate_rows
 from .._numerics.phasor import unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
@@ -99,15 +99,15 @@ def _grid_spectra(values, offset, n_x):
     n_lines = values.shape[0]
     p = next_fast_len(2 * n_lines)
     padded = jnp.roll(jnp.pad(spectrum, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
-    return jnp.fft.fft(padded.T, axis=1)
+    return periodic_rows(jnp.fft.fft(padded.T, axis=1))
 
 
 def _grid_sum(dtft, ranges, kappa, taps):
     """``Σ_j F_j e^{−jκ (r_j − r_c)} = D(κ Δr)`` by windowed-sinc interpolation of the
-    periodic DTFT; returns it and r_c (the middle line's range)."""
-    p = dtft.shape[1]
+    periodic DTFT (:class:`PeriodicRows` of the (n_x, p) table, κ (n_c, n_x), the result
+    (n_c, n_x)); returns it and r_c (the middle line's range)."""
     step = ranges[1] - ranges[0]
-    summed = sinc_interpolate(dtft, kappa * step * (p / _TWO_PI), taps=taps, periodic=True)
+    summed = sinc_interpolate_rows(dtft, kappa * step * (dtft.period / _TWO_PI), taps=taps)
     return summed, ranges[ranges.shape[0] // 2]
 
 
@@ -326,10 +326,12 @@ class HighSpeed(AbstractStraightTrackSimulator):
         lower = -(2 * plan.bands + 1) * jnp.pi / dx + jnp.pi / (n_x * dx)
 
         def band(band_k, eta_m):
-            """(n_x, chunk) Σ over groups of one Doppler band ξ + 2πk/Δx, range alias η_m."""
-            k = eta_m[None, :] + k0
+            """(chunk, n_x) Σ over groups of one Doppler band ξ + 2πk/Δx, range alias η_m
+            (the columns as rows: the azimuth transform then runs along contiguous rows,
+            with no transpose of this fused synthesis)."""
+            k = eta_m[:, None] + k0
             centroid = k * jnp.sin(radar.squint)
-            xi_cells = nearest_alias(xi[:, None], k, radar.squint, dx) + band_k * _TWO_PI / dx
+            xi_cells = nearest_alias(xi[None, :], k, radar.squint, dx) + band_k * _TWO_PI / dx
             keep = (xi_cells - centroid > lower) if plan.bands else True
             acc = 0.0
             for v_r, v_a, data, ranges, where in groups:
@@ -337,7 +339,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
                     radar, xi_cells, k, v_r, v_a, self.stop_and_go)
                 if gridded:
                     summed, r_ref = _grid_sum(data, ranges, kappa, self.taps)
-                    alias = jnp.round((xi_cells - xi[:, None]) * dx / _TWO_PI)
+                    alias = jnp.round((xi_cells - xi[None, :]) * dx / _TWO_PI)
                     summed = summed * unit_phasor(-_TWO_PI * alias * where)
                 else:
                     summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
@@ -350,9 +352,9 @@ class HighSpeed(AbstractStraightTrackSimulator):
             acc = engine.add_alias_bands(band(0.0, eta_m),
                                          lambda k: band(k, eta_m), plan.bands)
             factor = engine.chirp_spectrum(radar, eta_m) * unit_phasor(eta_m * near) / dr
-            along = jnp.fft.ifft(acc * factor[None, :], axis=0)[pad:pad + n_pulses]
+            along = jnp.fft.ifft(acc * factor[:, None], axis=1)[:, pad:pad + n_pulses]
             carrier = unit_phasor(xi_c * (x_pulses - x0))  # back from the ξ_d-centred grid
-            return (along * carrier[:, None]).astype(dtype).T
+            return (along * carrier[None, :]).astype(dtype)
 
         def chunked(eta_cols):
             """(n, n_pulses) columns η, ``column_chunk`` at a time."""
