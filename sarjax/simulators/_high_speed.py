@@ -269,10 +269,10 @@ class HighSpeed(AbstractStraightTrackSimulator):
                    + item * spectra)
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
-        """≈ 40 FFT2-equivalents of the padded grid per velocity group and Doppler band
-        (benchmarks/RESULTS.md, seed 004 Table 1)."""
+        """≈ 6 FFT2-equivalents of the padded grid per velocity group and Doppler band
+        (benchmarks/RESULTS.md, seed 004 Table 1: 5.3 for one group, 23 for four)."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        steady = (40 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
+        steady = (6 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
                   * (2 * plan.bands + 1))
         return Cost(compile=3.0, steady=steady)
 
