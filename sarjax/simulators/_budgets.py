@@ -455,6 +455,13 @@ def _in_main_lobe(along, rs, ratio, tan_d):
 
 @_exported.cached
 @eqx.filter_jit
+def _lobe_peak(lobe, values):
+    """max |values| over the pairs in the main lobe (0 if none)."""
+    return jnp.max(jnp.abs(jnp.where(lobe, values, 0.0)), initial=0.0)
+
+
+@_exported.cached
+@eqx.filter_jit
 def _hypot(rs, along):
     return jnp.sqrt(rs**2 + along**2)
 
@@ -534,9 +541,7 @@ class LobeGeometry:
 
     def lobe_max(self, values) -> float:
         """max |values| over the main lobe (0 if no pair is in it)."""
-        if not self.lobe.any():
-            return 0.0
-        return float(np.max(np.abs(np.where(self.lobe, values, 0.0))))
+        return float(_lobe_peak(self.lobe, np.asarray(values, float)))
 
 
 # ---- the pointing expansion -------------------------------------------------------------
