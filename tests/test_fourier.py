@@ -82,12 +82,15 @@ def test_reflectivity_grid_with_heights_matches_time_domain(method):
     # the default full-band focusing boosts the band edges (pattern floor 0.05), where
     # the Fourier models omit the Doppler aliases: still within the issue's −25 dB
     assert _focused_nmse(radar, raw, ref, motion) <= -25.0
-    # complex64 runs the tables, the synthesis and the transforms in complex64 with the
-    # phases from float64: float32 rounding only (measured −129 to −133 dB on seed 000's
-    # scene; the sinc weights formed from f ∈ [0, 1) in float32 gave −82 dB for B)
-    single = sj.simulate(radar, grid, motion, method=method, dtype=jnp.complex64, **kw)
-    assert single.data.dtype == jnp.complex64
-    assert nmse_db(single.data, raw.data) <= -110.0
+    if method == "moderate_deviation":
+        # complex64 runs the tables, the synthesis, B's line sets and the transforms in
+        # complex64 with the phases from float64: float32 rounding only (measured −129 to
+        # −133 dB on seed 000's scene; the sinc weights formed from f ∈ [0, 1) in float32
+        # gave −82 dB for B's grids, −129 dB for the others; the other methods' complex64
+        # runs: test_reproducibility.py, and drawn scenes in test_precision.py, slow)
+        single = sj.simulate(radar, grid, motion, method=method, dtype=jnp.complex64, **kw)
+        assert single.data.dtype == jnp.complex64
+        assert nmse_db(single.data, raw.data) <= -110.0
 
 
 @pytest.mark.parametrize("num_pulses", SIZES)
