@@ -428,18 +428,6 @@ def scene_samples(scene, max_points=1024):
     raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
 
 
-def at_pulse(values, x, x_p, dx):
-    """(scatterer,) per-(pulse, scatterer) ``values`` linearly interpolated at the pulse
-    position ``x`` of each scatterer (pulses x_p spaced dx; edge values outside)."""
-    n = x_p.size
-    position = np.clip((x - x_p[0]) / dx, 0.0, n - 1.0)
-    i0 = np.minimum(np.floor(position).astype(int), max(n - 2, 0))
-    t = position - i0
-    cols = np.arange(x.size)
-    i1 = np.minimum(i0 + 1, n - 1)
-    return values[i0, cols] * (1 - t) + values[i1, cols] * t
-
-
 # the (pulse, scatterer) arrays of LobeGeometry, each one fused program (NumPy spent
 # ≈ 6 ms per array on 972 × 1024 pairs forming temporaries; these ≈ 1 ms); scalars are
 # passed as 0-d arrays, so that one program serves every value
@@ -453,24 +441,13 @@ def _in_main_lobe(along, rs, ratio, tan_d):
     return jnp.abs(ratio * (along / rs + tan_d) / (1 - along * tan_d / rs)) <= 1.0
 
 
-@_exported.cached
-@eqx.filter_jit
-def _lobe_peak(lobe, values):
-    """max |values| over the pairs in the main lobe (0 if none)."""
+def lobe_peak(lobe, values):
+    """max |values| over the pairs in the main lobe (0 if none); traceable (the tracks'
+    fused budget programs use it)."""
     return jnp.max(jnp.abs(jnp.where(lobe, values, 0.0)), initial=0.0)
 
 
-@_exported.cached
-@eqx.filter_jit
-def _hypot(rs, along):
-    return jnp.sqrt(rs**2 + along**2)
-
-
-@_exported.cached
-@eqx.filter_jit
-def _deviated_range(along, rs, los):
-    """R = r + (R − r) (:func:`~sarjax.geometry.range_offset`)."""
-    return rs + geometry.range_offset(along, rs, los)
+_lobe_peak = _exported.cached(eqx.filter_jit(lobe_peak))
 
 
 class LobeGeometry:
@@ -480,8 +457,7 @@ class LobeGeometry:
 
     Attributes:
         along: ``a = x' − x`` [m]; lobe: the mask ``|u| ≤ 1``.
-        los: ``δr_xr(x', r)`` [m]; delta_r: ``δr(x')`` (pulse, 1) [m]; psi: ``ψ = δr_xr − δr``.
-        nominal: ``R_n = √(r² + a²)``; exact: the deviated range R; cos_look: ``r / R_n``.
+        los: ``δr_xr(x', r)`` [m]; delta_r: ``δr(x')`` (pulse, 1) [m].
         pointing: δ_az (pulse,) [rad].
         k0, eta_max, dx, squint, x_p, xs, rs: the constants and sample positions.
     """
@@ -522,22 +498,6 @@ class LobeGeometry:
         radar = self._radar
         return np.asarray(geometry.line_of_sight_deviation(
             self._dy, self._dz, float(radar.reference_range), 0.0, float(radar.height)))[:, None]
-
-    @functools.cached_property
-    def psi(self):
-        return self.los - self.delta_r
-
-    @functools.cached_property
-    def nominal(self):
-        return np.asarray(_hypot(self.rs[None, :], self.along))
-
-    @functools.cached_property
-    def exact(self):
-        return np.asarray(_deviated_range(self.along, self.rs[None, :], self.los))
-
-    @functools.cached_property
-    def cos_look(self):
-        return self.rs[None, :] / self.nominal
 
     def lobe_max(self, values) -> float:
         """max |values| over the main lobe (0 if no pair is in it)."""

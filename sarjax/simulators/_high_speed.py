@@ -62,7 +62,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics.interpolation import next_fast_len, periodic_rows, sinc_interpolate_rows
+from .._numerics.interpolation import next_fast_len, periodic_rows
 from .._numerics.phasor import unit_phasor
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
@@ -84,7 +84,8 @@ def nearest_alias(xi, k, squint, dx):
 
 def _grid_spectra(values, offset, n_x):
     """Azimuth DFT of grid rows aligned with the pulses, then the 2×-oversampled DFT over
-    range lines about the middle line (the inverse Stolt sum of :func:`_grid_sum`).
+    range lines about the middle line (the inverse Stolt sum of
+    :func:`._fourier_engine.synthesize_grid`).
 
     Args:
         values: (n_lines, n_az) modulated reflectivity, one row per range line.
@@ -100,15 +101,6 @@ def _grid_spectra(values, offset, n_x):
     p = next_fast_len(2 * n_lines)
     padded = jnp.roll(jnp.pad(spectrum, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
     return periodic_rows(jnp.fft.fft(padded.T, axis=1))
-
-
-def _grid_sum(dtft, ranges, kappa, taps):
-    """``Σ_j F_j e^{−jκ (r_j − r_c)} = D(κ Δr)`` by windowed-sinc interpolation of the
-    periodic DTFT (:class:`PeriodicRows` of the (n_x, p) table, κ (n_c, n_x), the result
-    (n_c, n_x)); returns it and r_c (the middle line's range)."""
-    step = ranges[1] - ranges[0]
-    summed = sinc_interpolate_rows(dtft, kappa * step * (dtft.period / _TWO_PI), taps=taps)
-    return summed, ranges[ranges.shape[0] // 2]
 
 
 def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, chunk=16):
@@ -338,7 +330,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
                 kappa, amplitude, u = spectrum_terms(
                     radar, xi_cells, k, v_r, v_a, self.stop_and_go)
                 if gridded:
-                    summed, r_ref = _grid_sum(data, ranges, kappa, self.taps)
+                    summed, r_ref = engine.synthesize_grid(data, ranges, kappa, self.taps)
                     alias = jnp.round((xi_cells - xi[None, :]) * dx / _TWO_PI)
                     summed = summed * unit_phasor(-_TWO_PI * alias * where)
                 else:

@@ -54,6 +54,7 @@ from ._budgets import (
     Budget,
     LobeGeometry,
     azimuth_budgets,
+    lobe_peak,
     pointing_budget,
 )
 
@@ -163,19 +164,14 @@ def straight_track_budgets(radar, scene, motion, acquisition):
     return StraightTrack().approximation_budgets(None, radar, lobe)
 
 
-def _lobe_peak(lobe, values):
-    """max |values| over the main lobe (0 if no pair is in it)."""
-    return jnp.max(jnp.abs(jnp.where(lobe, values, 0.0)), initial=0.0)
-
-
 @_exported.cached
 @eqx.filter_jit
 def _small_deviation_maxima(along, rs, los, delta_r, lobe, beam_pulse, c_d):
     """Algorithm A's three lobe maxima over the (pulse, scatterer) pairs, in one fused
     program: max|R − R_n − cos φ_d δr_xr|, max(|ψ|/c + |δr||1/c − 1/c_d|) and
     max|ψ(x', r) − ψ(x_c, r)| (``c = r/R_n``; ``beam_pulse`` the beam-centre pulse of
-    each scatterer in pulse spacings from the first, ψ interpolated there as
-    ``_budgets.at_pulse``)."""
+    each scatterer in pulse spacings from the first, ψ interpolated linearly there, edge
+    values outside)."""
     nominal = jnp.sqrt(rs**2 + along**2)
     exact = rs + geometry.range_offset(along, rs, los)
     cos_look = rs / nominal
@@ -186,10 +182,10 @@ def _small_deviation_maxima(along, rs, los, delta_r, lobe, beam_pulse, c_d):
     t = position - i0
     cols = jnp.arange(psi.shape[1])
     psi_beam = psi[i0, cols] * (1 - t) + psi[jnp.minimum(i0 + 1, n - 1), cols] * t
-    return (_lobe_peak(lobe, exact - nominal - c_d * los),
-            _lobe_peak(lobe, jnp.abs(psi) / cos_look
+    return (lobe_peak(lobe, exact - nominal - c_d * los),
+            lobe_peak(lobe, jnp.abs(psi) / cos_look
                        + jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)),
-            _lobe_peak(lobe, psi - psi_beam[None, :]))
+            lobe_peak(lobe, psi - psi_beam[None, :]))
 
 
 class SmallDeviationTrack(AbstractTrack):
@@ -262,11 +258,11 @@ def _moderate_deviation_maxima(along, rs, los, delta_r, lobe, constants):
         uncorrected = (jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)
                        + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2))
         return jnp.stack([
-            _lobe_peak(lobe, exact - nominal - los * cos_look),
-            _lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
-            _lobe_peak(lobe, exact - nominal - c_d * los),
-            _lobe_peak(lobe, corrected), _lobe_peak(lobe, uncorrected),
-            _lobe_peak(lobe, corrected + uncorrected)])
+            lobe_peak(lobe, exact - nominal - los * cos_look),
+            lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
+            lobe_peak(lobe, exact - nominal - c_d * los),
+            lobe_peak(lobe, corrected), lobe_peak(lobe, uncorrected),
+            lobe_peak(lobe, corrected + uncorrected)])
 
     peaks = jax.lax.map(block, (split(along), split(rs), split(los), in_lobe))
     return tuple(jnp.max(peaks, axis=0))
