@@ -325,17 +325,17 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
     grid_2d = gridded and track.kind != "moderate"
     gamma = _scene_lines(ctx, track, prepared, grid_2d)
     # A(ξ, r)/√r: a per-ξ factor, with a grid's azimuth ramp
+    work = ctx.work
+    real = jnp.finfo(work).dtype
     column_weight = engine.stationary_amplitude(radar, xi, 1.0) * ctx.keep
     if prepared.gridded:
         column_weight = column_weight * engine.grid_azimuth_ramp(prepared.azimuth, ctx.x0, xi)
-        spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma.astype(ctx.work), n_x)
+        spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma.astype(work), n_x)
     else:
         spectrum = (gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - ctx.x0))
-                    ).astype(ctx.work)
+                    ).astype(work)
     if not grid_2d:
         sets = track.line_sets(ctx, sim, spectrum, column_weight, weights)
-    work = ctx.work
-    real = jnp.finfo(work).dtype
     if sets is None:  # the pattern is a per-ξ factor: one set, weighted per order
         eta_set = None
         if grid_2d:
