@@ -48,7 +48,6 @@ from pathlib import Path
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 import sarjax as sj
 
@@ -60,7 +59,6 @@ START = "<!-- profile_fourier:start -->"
 END = "<!-- profile_fourier:end -->"
 STAGES = ("checks and dispatch", "column loop, synthesis", "column loop, transforms",
           "scene tables, transforms", "scene tables, elementwise")
-YARDSTICK = (2560, 675)
 
 
 def seed000_case(method):
@@ -145,11 +143,9 @@ def breakdown(case, dtype, repeats=5):
     return out, wall
 
 
-def fft_yardstick(repeats=20):
-    fft2 = jax.jit(jnp.fft.fft2)
-    a = jnp.asarray(np.random.default_rng(1).normal(size=YARDSTICK) + 0j)
-    jax.block_until_ready(fft2(a))
-    return steady(lambda: fft2(a), repeats).min
+def fft_yardstick():
+    """Wall time [s] of the fixed complex128 FFT2 (``bench_fourier.fft_baseline``)."""
+    return bf.fft_baseline(bf.YARDSTICK)["complex128"][0]
 
 
 def table(rows, fft):
