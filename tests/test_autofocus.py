@@ -268,4 +268,39 @@ def test_genie_bound_scales_with_the_noise(radar):
     np.testing.assert_allclose(values[1], values[0] / 10, rtol=1e-3)
     info, ranges = bound.phase_information(radar, signal, noise, x, clean.range,
                                            interference=signal)
-    assert np.all(bound.phase_bound(radar, info, ranges, 16, blocks) > values[0])
+    interfered = bound.phase_bound(radar, info, ranges, 16, blocks)
+    assert np.all(interfered > values[0])
+    # the same scene's echo as clutter of unknown reflectivity adds information: the bound
+    # can only fall, and stays above the known-scene one
+    band, _ = bound.clutter_information(radar, signal, noise, x, clean.range)
+    assert np.all(np.isfinite(band))
+    both = bound.phase_bound(radar, info, ranges, 16, blocks, clutter=band)
+    assert np.all(both <= interfered * (1 + 1e-9)) and np.all(both > values[0])
+
+
+def test_clutter_lag_information_is_the_gaussian_fisher_information():
+    """``lag_information`` against the Fisher information of a circular Gaussian vector
+    evaluated densely, ``tr(C⁻¹ ∂_p C C⁻¹ ∂_q C)`` with ``C = D C₀ Dᴴ + I``: the closed
+    form (circulant g, h, k) must equal it to rounding (1e-9 relative), and a white
+    spectrum carries no phase information (its phases are those of noise)."""
+    from sarjax.inverse import _autofocus_bound as bound
+
+    n, cnr = 12, 3.0
+    rng = np.random.default_rng(4)
+    spectrum = rng.uniform(0.1, 2.0, n)
+    spectrum /= spectrum.mean()
+    dft = np.fft.fft(np.eye(n)) / np.sqrt(n)
+    c0 = dft.conj().T @ np.diag(cnr * spectrum) @ dft  # circulant, eigenvalues q·S
+    inverse = np.linalg.inv(c0 + np.eye(n))
+    derivatives = []
+    for p in range(n):
+        e = np.zeros((n, n))
+        e[p, p] = 1.0
+        derivatives.append(-1j * (e @ c0 - c0 @ e))  # ∂/∂φ_p of D C₀ Dᴴ at φ = 0
+    dense = np.array([[np.trace(inverse @ a @ inverse @ b).real for b in derivatives]
+                      for a in derivatives])
+    closed = bound.lag_information(spectrum, cnr)
+    expected = np.array([[closed[(q - p) % n] for q in range(n)] for p in range(n)])
+    np.testing.assert_allclose(dense, expected, rtol=1e-9, atol=1e-9 * np.abs(dense).max())
+    np.testing.assert_allclose(expected.sum(axis=1), 0.0, atol=1e-9 * np.abs(dense).max())
+    np.testing.assert_allclose(bound.lag_information(np.ones(n), cnr), 0.0, atol=1e-12)
