@@ -187,6 +187,35 @@ def test_version_and_lazy_modules(capsys):
         sj.nonexistent  # noqa: B018
 
 
+def test_the_command_keeps_freed_memory(monkeypatch, capsys):
+    """Run as the command (arguments from the command line), ``main`` sets the allocator
+    to keep freed memory (``sarjax._allocator``); called from Python with its arguments it
+    leaves the process's allocator alone. ``retain_freed_memory`` passes glibc the three
+    settings and reports whether all were taken (a fake ``mallopt``: the test process's
+    own allocator is not changed)."""
+    from sarjax import _allocator
+
+    calls = []
+    monkeypatch.setattr(_allocator, "retain_freed_memory", lambda: calls.append(1) or True)
+    assert sarjax.cli.main(["--version"]) == 0
+    assert calls == []
+    monkeypatch.setattr(sys, "argv", ["sarjax", "--version"])
+    assert sarjax.cli.main() == 0
+    assert calls == [1]
+    capsys.readouterr()
+    monkeypatch.undo()
+
+    taken = []
+    monkeypatch.setattr(_allocator, "_libc", lambda: lambda p, v: taken.append((p, v)) or 1)
+    assert sj.retain_freed_memory() is True
+    assert taken == [(_allocator.M_MMAP_MAX, 0), (_allocator.M_TRIM_THRESHOLD, 2**31 - 1),
+                     (_allocator.M_ARENA_MAX, 1)]
+    monkeypatch.setattr(_allocator, "_libc", lambda: lambda p, v: 0)
+    assert sj.retain_freed_memory() is False
+    monkeypatch.setattr(_allocator, "_libc", lambda: None)
+    assert sj.retain_freed_memory() is False
+
+
 def test_config_example_check_and_did_you_mean(tmp_path, capsys):
     """``config --example`` prints a configuration that builds a run and names every key
     the reader accepts; ``check CONFIG`` reports that run's budgets; a misspelt key is

@@ -12,7 +12,9 @@ Compiled programs are kept between runs in ``~/.cache/sarjax/jax``
 (``$XDG_CACHE_HOME`` respected; ``SARJAX_CACHE_DIR`` names another folder, ``off`` none):
 XLA's entries and, under ``programs/``, each simulation call traced and compiled, so a
 second run of a configuration skips both (:mod:`sarjax._compilation_cache`; the key and
-its safety under concurrent runs: the architecture page, "The compilation cache").
+its safety under concurrent runs: the architecture page, "The compilation cache"). The
+command also keeps the memory a call frees for the next one (:mod:`sarjax._allocator`;
+not when :func:`main` is called from Python with its arguments).
 
 The configuration files (TOML) of ``simulate`` and their keys: :mod:`sarjax.cli.config`.
 The verbs: :mod:`sarjax.cli.commands`.
@@ -44,8 +46,11 @@ def main(argv=None) -> int:
         from .. import distributed
 
         distributed.initialize()
-    from .. import _exported
+    from .. import _allocator, _exported
     from .._compilation_cache import enable_compilation_cache
+
+    if argv is None:  # run as the command (not called from Python with its arguments)
+        _allocator.retain_freed_memory()  # a call reuses the memory the last one freed
 
     kept = _exported.folder()  # restored on return (main called from Python)
     try:
