@@ -34,6 +34,7 @@ LAYERS = {
     "sarjax._data": 0,
     "sarjax._files": 0,
     "sarjax._compilation_cache": 0,
+    "sarjax._allocator": 0,
     "sarjax._exported": 0,
     "sarjax._names": 0,
     # 1: the simulators (a registry module under simulators/ that belongs to the
