@@ -80,17 +80,17 @@ def genie_bounds(radar, raw, parts, truth):
     x = np.asarray(raw.azimuth)
     num_basis = af._default_model(radar, x).horizontal.num_basis()
     blocks = af.range_blocks(radar, raw.range)
-    out = {}
-    for name, signal, interference in (("scene", clutter + pts, None),
-                                       ("points", pts, clutter)):
-        info, ranges = bound.phase_information(radar, signal, noise_power, raw.azimuth,
-                                               raw.range, interference=interference)
-        out[name] = bound.phase_bound(radar, info, ranges, num_basis, blocks)
+    scene, ranges = bound.phase_information(radar, clutter + pts, noise_power, raw.azimuth,
+                                            raw.range)
+    points, _ = bound.phase_information(radar, pts, noise_power, raw.azimuth, raw.range,
+                                        interference=clutter)
     band, _ = bound.clutter_information(
         radar, clutter, noise_power, raw.azimuth, raw.range,
         phase=lambda r: af.true_line_of_sight_phase(radar, truth, r))
-    out["clutter"] = bound.phase_bound(radar, info, ranges, num_basis, blocks, clutter=band)
-    return out
+    return {"scene": bound.phase_bound(radar, scene, ranges, num_basis, blocks),
+            "points": bound.phase_bound(radar, points, ranges, num_basis, blocks),
+            "clutter": bound.phase_bound(radar, points, ranges, num_basis, blocks,
+                                         clutter=band)}
 
 
 def brightest_points(points, raw, radar, count=3):

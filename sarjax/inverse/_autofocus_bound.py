@@ -61,6 +61,20 @@ def _compressed(radar, raw_data, azimuth, ranges):
     return np.asarray(focuser.compressed)[:, :n], np.asarray(focuser.range)
 
 
+def _compressed_noise_power(radar, noise_power, shape, azimuth, ranges):
+    """σ²: the power per range-compressed sample of complex white noise of ``noise_power``
+    per raw sample (a (pulse, sample) ``shape`` draw, compressed as the data)."""
+    rng = np.random.default_rng(0)
+    noise = np.sqrt(noise_power / 2) * (rng.normal(size=shape) + 1j * rng.normal(size=shape))
+    return float(np.mean(np.abs(_compressed(radar, noise, azimuth, ranges)[0]) ** 2))
+
+
+def _footprint_pulses(radar):
+    """Pulses in one footprint at the reference range (≥ 1)."""
+    return max(int(round(float(radar.footprint(radar.reference_range))
+                         / float(radar.azimuth_spacing))), 1)
+
+
 def phase_information(radar, signal, noise_power, azimuth, ranges, *, interference=None,
                       smoothing=None):
     """(range, pulse) Fisher information 2|s|²/σ² of the line-of-sight phase per
@@ -74,15 +88,11 @@ def phase_information(radar, signal, noise_power, azimuth, ranges, *, interferen
             footprint at the reference range), is added to σ².
     """
     s, r = _compressed(radar, np.asarray(signal), azimuth, ranges)
-    rng = np.random.default_rng(0)
-    shape = np.shape(signal)
-    noise = np.sqrt(noise_power / 2) * (rng.normal(size=shape) + 1j * rng.normal(size=shape))
-    n_c, _ = _compressed(radar, noise, azimuth, ranges)
-    sigma2 = np.full(s.shape, float(np.mean(np.abs(n_c) ** 2)))
+    sigma2 = np.full(s.shape, _compressed_noise_power(radar, noise_power, np.shape(signal),
+                                                      azimuth, ranges))
     if interference is not None:
         c, _ = _compressed(radar, np.asarray(interference), azimuth, ranges)
-        width = smoothing or max(int(round(float(radar.footprint(radar.reference_range))
-                                           / float(radar.azimuth_spacing))), 1)
+        width = smoothing or _footprint_pulses(radar)
         kernel = np.ones(width) / width
         local = np.apply_along_axis(lambda v: np.convolve(v, kernel, mode="same"), 1,
                                     np.abs(c) ** 2)
@@ -125,17 +135,11 @@ def clutter_information(radar, clutter, noise_power, azimuth, ranges, *, phase=N
     c, r = _compressed(radar, np.asarray(clutter), azimuth, ranges)
     if phase is not None:
         c = c * np.exp(1j * np.asarray(phase(r))[:, :c.shape[1]])
-    rng = np.random.default_rng(0)
-    shape = np.shape(clutter)
-    noise = np.sqrt(noise_power / 2) * (rng.normal(size=shape) + 1j * rng.normal(size=shape))
-    sigma2 = float(np.mean(np.abs(_compressed(radar, noise, azimuth, ranges)[0]) ** 2))
+    sigma2 = _compressed_noise_power(radar, noise_power, np.shape(clutter), azimuth, ranges)
     n = c.shape[1]
     spectrum = np.mean(np.abs(np.fft.fft(c, axis=1)) ** 2, axis=0)
     spectrum = spectrum / spectrum.mean()
-    if segment is None:
-        segment = int(round(float(radar.footprint(radar.reference_range))
-                            / float(radar.azimuth_spacing)))
-    segment = max(2 * (int(segment) // 2), 4)
+    segment = max(2 * (int(segment or _footprint_pulses(radar)) // 2), 4)
     lags = min(int(max_lag), n - 1, segment - 1)
     # Hann windows of `segment` pulses every segment/2, starting half a window before the
     # first pulse: Σ_s w_s(p) = 1 on every pulse
