@@ -232,7 +232,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
               max_targets: int = 24, min_ratio: float = 30.0, max_steps: int = 200,
               estimate_pointing: bool = True, sharpness_region: str = "targets",
               target_window: float = 16.0, step_check: str = "windows",
-              sharpness_passes: int = 3) -> AutofocusResult:
+              sharpness_passes: int = 3, min_window: float = 8.0) -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
     Stages (module docstring): range-dependent phase gradients of the dominant scatterers
@@ -250,7 +250,14 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         objective: ``"entropy"`` (default) or ``"contrast"``.
         windows: half-widths [m] of the azimuth window about each dominant scatterer, one
             phase-gradient iteration each (the first must hold the blur of the initial
-            error: ``r max|∂φ/∂x'|/k₀``).
+            error: ``r max|∂φ/∂x'|/k₀``). Within each entry the half-width is taken from
+            the data: 1.5 × the −10 dB width of the median of the scatterers' centred,
+            normalised intensity lines, no less than ``min_window``.
+        min_window: the smallest half-width [m] the data may choose while the entry
+            allows it. Measured on the 10 benchmark draws (2 cm rms Δy, Δz, blur ≈ ±8 m):
+            with a floor of 1 m the windows shrank to ±1 m after one or two iterations
+            while 1–3 rad of error remained (median worst block 0.67 rad after the
+            sharpness stage); with 8 m and the median, 0.18 rad.
         max_targets: dominant scatterers used per iteration.
         min_ratio: a dominant scatterer's peak over its range bin's median power.
         max_steps: L-BFGS iterations of the sharpness stage (0 = skip it).
@@ -285,6 +292,8 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         raise ValueError(f"step_check={step_check!r}; choose 'windows' or 'image'")
     if not target_window > 0:
         raise ValueError(f"target_window={target_window!r} must be > 0 [m]")
+    if not min_window > 0:
+        raise ValueError(f"min_window={min_window!r} must be > 0 [m]")
     if not isinstance(sharpness_passes, int) or sharpness_passes < 1:
         raise ValueError(f"sharpness_passes={sharpness_passes!r} must be an integer >= 1")
     x = np.asarray(raw.azimuth, float)
@@ -326,7 +335,9 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
                           "stage stops; the estimate may be poor", AutofocusWarning,
                           stacklevel=2)
             break
-        half = previous_half = _pga.blur_half_width(power, rows, cols, half)
+        half = previous_half = _pga.blur_half_width(
+            power, rows, cols, half, average="median",
+            floor=max(int(round(min_window / spacing)), 2))
         z = np.asarray(_pga.target_products(focuser, phase, jnp.asarray(rows),
                                             jnp.asarray(cols), jnp.asarray(half)))
         dy_c, dz_c = _pga.motion_increment(z, rows, focuser, design_y, current=(c_y, c_z))

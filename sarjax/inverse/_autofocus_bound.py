@@ -43,6 +43,14 @@ clutter-to-noise ratio q), ``g, h, k`` are the inverse DFTs of ``1/(qS + 1)``,
 ``qS/(qS + 1)`` and ``(qS)²/(qS + 1)``. With the points known and counted as above, the
 sum of the two informations bounds any unbiased estimator that does not know the clutter's
 reflectivity (knowing its statistics only helps).
+
+The points need not be known either: ``phase_bound(..., points=[...])`` takes each
+point's own information and removes from it what a phase constant and a phase slope over
+the pulses, both unknown per point, absorb (the Schur complement of the Fisher matrix of
+(c, ν_k), ``φ(p, r) + ν_k0 + ν_k1 (p − p̄)`` at the point's range bins): the point's
+reflectivity phase and its azimuth position, ``δφ ≈ k₀ (x' − x_k) δx_k / r_k``. Its
+slant range is taken as known (range compression fixes it to a fraction of a cell; an
+error δr changes the phase curvature by ``k₀ (x' − x_k)² δr / 2r²``, ignored).
 """
 
 from __future__ import annotations
@@ -206,26 +214,55 @@ def _band_matrix(band):
     return out
 
 
+def _point_information(radar, design, info_ranges, information):
+    """(2b, 2b) information on the B-spline coefficients that one point's (range, pulse)
+    ``information`` carries when its phase constant and slope are unknown (module
+    docstring): ``F_cc − F_cν F_νν⁻¹ F_νc``."""
+    k0 = float(radar.wavenumber)
+    n = information.shape[1]
+    t = np.arange(n, dtype=float)
+    nuisance = np.stack([np.ones(n), (t - t.mean()) / n], axis=1)  # (pulse, 2)
+    look = np.arccos(np.clip(float(radar.height) / np.asarray(info_ranges), -1.0, 1.0))
+    per_pulse = _look_weights(radar, info_ranges) @ information  # (3, pulse)
+    f_cc = [design.T @ (w[:, None] * design) for w in per_pulse]
+    f_cc = k0**2 * np.block([[f_cc[0], f_cc[1]], [f_cc[1], f_cc[2]]])
+    sin_w = np.sin(look) @ information  # (pulse,) Σ_r info sin ϑ
+    cos_w = np.cos(look) @ information
+    f_cn = k0 * np.concatenate([-design.T @ (sin_w[:, None] * nuisance),
+                                design.T @ (cos_w[:, None] * nuisance)], axis=0)  # (2b, 2)
+    f_nn = nuisance.T @ (information.sum(axis=0)[:, None] * nuisance)
+    return f_cc - f_cn @ np.linalg.solve(f_nn, f_cn.T)
+
+
 def phase_bound(radar, information, info_ranges, num_basis: int, blocks, *,
-                samples: int = 16, ridge: float = 1e-12, clutter=None):
+                samples: int = 16, ridge: float = 1e-12, clutter=None, points=None):
     """(block,) lower bound [rad] on the aperture-detrended residual line-of-sight phase
     rms of :func:`sarjax.inverse.residual_phase_rms` for a cubic B-spline model of
     ``num_basis`` functions per component, from the (range, pulse) ``information`` of
     :func:`phase_information`. Pulses no scatterer informs give an unbounded error; the
     ``ridge`` (relative to the mean diagonal) keeps the inverse finite there. ``clutter``:
-    the (3, pulse, lag) band of :func:`clutter_information`, added to the information."""
-    n = information.shape[1]
+    the (3, pulse, lag) band of :func:`clutter_information`, added to the information.
+    ``points``: a sequence of (range, pulse) informations, one per point (each from
+    :func:`phase_information` of that point's echo alone), whose phase constant and
+    azimuth position are unknown (module docstring); ``information`` may then be None
+    (nothing else known) or hold what is known besides."""
+    if information is None and not points:
+        raise ValueError("phase_bound needs information or points")
+    n = (information if information is not None else points[0]).shape[1]
     x = np.arange(n, dtype=float)
     design = np.asarray(BSpline(num_basis).bind(x).design(x))
     k0 = float(radar.wavenumber)
     height = float(radar.height)
     # F = Σ_r Σ_p info(r, p) k0² [−sin B, cos B]ᵀ[−sin B, cos B]
-    per_pulse = _look_weights(radar, info_ranges) @ information  # (3, pulse)
+    known = information if information is not None else np.zeros((len(info_ranges), n))
+    per_pulse = _look_weights(radar, info_ranges) @ known  # (3, pulse)
     blocks_f = [design.T @ (w[:, None] * design) for w in per_pulse]
     if clutter is not None:
         blocks_f = [f + design.T @ _band_matrix(band[:n]) @ design
                     for f, band in zip(blocks_f, clutter, strict=True)]
     fisher = k0**2 * np.block([[blocks_f[0], blocks_f[1]], [blocks_f[1], blocks_f[2]]])
+    for info in points or ():
+        fisher = fisher + _point_information(radar, design, info_ranges, np.asarray(info))
     fisher += ridge * np.trace(fisher) / fisher.shape[0] * np.eye(fisher.shape[0])
     cov = np.linalg.inv(fisher)
     spacing = float(radar.azimuth_spacing)

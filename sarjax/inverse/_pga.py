@@ -83,18 +83,23 @@ def select_targets(power, num_pulses: int, *, segment: int, max_targets: int,
 
 
 def blur_half_width(power, rows, cols, cap: int, *, level_db: float = -10.0,
-                    factor: float = 1.5, floor: int = 4) -> int:
+                    factor: float = 1.5, floor: int = 4, average: str = "mean") -> int:
     """Window half-width [columns] from the data (Wahl et al. 1994): the intensity lines of
-    the selected scatterers, centred on their peaks and normalised to them, are averaged;
-    the half-width is ``factor`` × the farthest offset where the average is above
-    ``level_db``, between ``floor`` and ``cap``."""
+    the selected scatterers, centred on their peaks and normalised to them, are averaged
+    (``average="mean"``, Wahl's rule, or ``"median"``: a line whose neighbourhood is
+    clutter rather than blur then does not widen the window); the half-width is
+    ``factor`` × the farthest offset where the average is above ``level_db``, between
+    ``min(floor, cap)`` and ``cap``."""
+    if average not in ("mean", "median"):
+        raise ValueError(f"average={average!r}; choose 'mean' or 'median'")
     n_cols = power.shape[1]
     offsets = np.arange(-cap, cap + 1)
     lines = power[rows[:, None], (cols[:, None] + offsets[None, :]) % n_cols]
-    mean = np.mean(lines / lines[:, cap:cap + 1], axis=0)
+    normalised = lines / lines[:, cap:cap + 1]
+    mean = np.mean(normalised, axis=0) if average == "mean" else np.median(normalised, axis=0)
     above = np.flatnonzero(mean >= 10 ** (level_db / 10))
     width = int(np.max(np.abs(offsets[above]))) if above.size else cap
-    return int(np.clip(round(factor * width), floor, cap))
+    return int(np.clip(round(factor * width), min(floor, cap), cap))
 
 
 @eqx.filter_jit
@@ -150,21 +155,24 @@ def integrate(gradient, coverage, *, min_fraction: float = 1e-3):
 
 
 def motion_increment(products, rows, focuser: AzimuthFocuser, design, *, current=None,
-                     iterations: int = 4, ridge: float = 1e-6,
-                     cross_ridge: float = 1e-3):
+                     ridge: float = 1e-6, cross_ridge: float = 1e-3):
     """Range-dependent fit of the products: B-spline increments of Δy, Δz [m].
 
     With ϑ₀ the look angle at the mid kept range, the line-of-sight deviation is written
     ``δr_xr(ϑ) = a cos(ϑ − ϑ₀) − b sin(ϑ − ϑ₀)``: ``a = −Δy sin ϑ₀ + Δz cos ϑ₀`` the
     deviation along the mid-swath line of sight, ``b = Δy cos ϑ₀ + Δz sin ϑ₀`` across it,
     seen only through the swath's look-angle spread. Solves
-    ``arg z_k(p) − s_k = −k₀ Δ[δr_xr](p, ϑ_k)`` (Δ the pulse-to-pulse difference, a and b
-    B-splines of ``design``) for their coefficients by weighted linear least squares
-    (weights |z_k(p)|), alternating with each scatterer's slope s_k. Ridges of
-    ``ridge`` (on a) and ``cross_ridge`` (on b) × trace/n hold the unobserved directions
-    (the constants, spans no scatterer covers, b where one look angle dominates) near zero:
-    the ridge acts on the total coefficients (``current`` (c_y, c_z) plus the increment),
-    so that iterating converges to the regularised solution instead of creeping to it.
+    ``arg z_k(p) = −k₀ Δ[δr_xr](p, ϑ_k) + s_k`` (Δ the pulse-to-pulse difference, a and b
+    B-splines of ``design``) for their coefficients and every scatterer's slope s_k (its
+    sub-pixel position and local linear phase) jointly, by weighted linear least squares
+    (weights |z_k(p)|). Solving for the slopes jointly rather than alternating with them:
+    with exact products on the airborne set (12 scatterers) the alternation stopped at
+    0.23–0.71 rad rms (aperture-detrended) and the joint solve reaches 0.07–0.12 rad.
+    Ridges of ``ridge`` (on a) and ``cross_ridge`` (on b) × trace/n hold the unobserved
+    directions (the constants, spans no scatterer covers, b where one look angle
+    dominates) near zero: the ridge acts on the total coefficients (``current``
+    (c_y, c_z) plus the increment), so that iterating converges to the regularised
+    solution instead of creeping to it.
 
     Returns:
         (c_y, c_z) coefficient increments, each (basis,).
@@ -183,34 +191,30 @@ def motion_increment(products, rows, focuser: AzimuthFocuser, design, *, current
     keep = weight >= 1e-3 * weight.max(axis=1, keepdims=True)
     k_idx, p_idx = np.nonzero(keep)
     w = np.sqrt(weight[k_idx, p_idx])
-    # products carry exp(−j k₀ Δδr): the measured gradient is −k₀ Δδr
-    a = -k0 * np.concatenate([along[k_idx, None] * diff[p_idx],
-                              across[k_idx, None] * diff[p_idx]], axis=1)
+    n, num_targets = diff.shape[1], z.shape[0]
+    # products carry exp(−j k₀ Δδr): the measured gradient is −k₀ Δδr, plus the slope s_k
+    slopes = np.zeros((k_idx.size, num_targets))
+    slopes[np.arange(k_idx.size), k_idx] = 1.0
+    a = np.concatenate([-k0 * along[k_idx, None] * diff[p_idx],
+                        -k0 * across[k_idx, None] * diff[p_idx], slopes], axis=1)
     aw = a * w[:, None]
     normal = aw.T @ aw
-    n = diff.shape[1]
-    scale = np.trace(normal) / normal.shape[0]
-    normal += np.diag(scale * np.r_[np.full(n, ridge), np.full(n, cross_ridge)])
-    penalty = scale * np.r_[np.full(n, ridge), np.full(n, cross_ridge)]
+    scale = np.trace(normal[: 2 * n, : 2 * n]) / (2 * n)
+    penalty = scale * np.r_[np.full(n, ridge), np.full(n, cross_ridge), np.zeros(num_targets)]
+    normal += np.diag(penalty)
     if current is None:
-        held = np.zeros(2 * n)
+        held = np.zeros(2 * n + num_targets)
     else:
         cy0, cz0 = (np.asarray(c, float) for c in current)
         held = np.r_[-cy0 * np.sin(look0) + cz0 * np.cos(look0),
-                     cy0 * np.cos(look0) + cz0 * np.sin(look0)]
-    # each scatterer's mean gradient first: an offset δx of its window centre from its
-    # position adds the constant gradient k₀ δx Δx'/r (≈ 0.75 rad per pulse for 37 m on the
-    # airborne set), which the first solve would otherwise take into the motion
-    slope = np.angle(np.sum(z, axis=1))
-    coef = np.zeros(a.shape[1])
-    for _ in range(iterations):
-        phase = np.angle(z[k_idx, p_idx] * np.exp(-1j * slope[k_idx]))
-        coef = np.linalg.solve(normal, aw.T @ (w * phase) - penalty * held)
-        resid = z[k_idx, p_idx] * np.exp(-1j * (a @ coef))
-        sums = np.zeros(z.shape[0], complex)
-        np.add.at(sums, k_idx, resid)
-        slope = np.angle(sums)
-    c_a, c_b = coef[:n], coef[n:]
+                     cy0 * np.cos(look0) + cz0 * np.sin(look0), np.zeros(num_targets)]
+    # the phases unwrapped about each scatterer's mean gradient: an offset δx of its window
+    # centre from its position adds the constant gradient k₀ δx Δx'/r (≈ 0.75 rad per pulse
+    # for 37 m on the airborne set), which may exceed π minus the motion's gradient elsewhere
+    centre = np.angle(np.sum(z, axis=1))
+    phase = np.angle(z[k_idx, p_idx] * np.exp(-1j * centre[k_idx])) + centre[k_idx]
+    coef = np.linalg.solve(normal, aw.T @ (w * phase) - penalty * held)
+    c_a, c_b = coef[:n], coef[n: 2 * n]
     # (a, b) → (Δy, Δz): Δy = −a sin ϑ₀ + b cos ϑ₀, Δz = a cos ϑ₀ + b sin ϑ₀
     c_y = -c_a * np.sin(look0) + c_b * np.cos(look0)
     c_z = c_a * np.cos(look0) + c_b * np.sin(look0)
