@@ -229,6 +229,10 @@ def test_bad_inputs(radar):
         sj.inverse.autofocus(radar, raw, windows=())
     with pytest.raises(ValueError, match="max_steps"):
         sj.inverse.autofocus(radar, raw, max_steps=-1)
+    with pytest.raises(ValueError, match="gradient_targets"):
+        sj.inverse.autofocus(radar, raw, gradient_targets=2)
+    with pytest.raises(ValueError, match="min_window"):
+        sj.inverse.autofocus(radar, raw, min_window=0.0)
     with pytest.raises(ValueError, match="raw"):
         sj.inverse.autofocus(radar, raw.data)
     with pytest.raises(ValueError, match="detrend"):
