@@ -200,7 +200,8 @@ def table(rows, info, complete, draws):
         "ΔPSLR = worst azimuth PSLR difference [dB] of the 3 brightest points whose true-track "
         "PSLR is ≤ −10 dB (others have clutter in their sidelobes), each image with the "
         "truth's constant and linear trend in place of its own (unobservable: it moves the "
-        "image and so where the PSLR is sampled); time = wall "
+        "image and so where the PSLR is sampled), with the number of such points; nan: no "
+        "response narrow enough to measure; time = wall "
         "seconds of the call (first draw includes compilation). CRB rows: genie-aided "
         "Cramér–Rao references of the same metric for the default model "
         "(docs/autofocus.md): scene known (the genie bound), points known with the clutter "
@@ -217,11 +218,13 @@ def table(rows, info, complete, draws):
         for name in ("model", "pga", "sharpness_phase"):
             m = row[name]
             worst = float(np.max(np.abs(m["d_pslr"]))) if m["d_pslr"].size else float("nan")
+            shown = (f"{worst:.2f} ({m['d_pslr'].size} pt)" if m["d_pslr"].size
+                     else "– (no clean point)")
             ok = (np.all(m["aperture"] <= 0.02) and abs(m["entropy"]) <= 0.01
                   and (not m["d_pslr"].size or worst <= 0.5))
             lines.append(f"| {row['seed']} | {name} | {fmt(m['aperture'])} | "
                          f"({fmt(m['global_'], 2)}) | {100 * m['entropy']:+.3f} % | "
-                         f"{worst:.2f} | {m['time']:.1f} | {'yes' if ok else 'no'} |")
+                         f"{shown} | {m['time']:.1f} | {'yes' if ok else 'no'} |")
         lines.append(f"| {row['seed']} | single-history floor | {fmt(row['floor'])} | | | | "
                      "| |")
         lines.append(f"| {row['seed']} | no correction | {fmt(row['none'])} | | | | | |")
