@@ -13,7 +13,8 @@ noise at SNR 10 dB (mean |h|² over the grid / noise power).
 Metrics (``docs/autofocus.md``): residual line-of-sight phase error rms per range block
 (near/mid/far thirds of the ground swath), aperture-detrended (what the focus depends on)
 and globally detrended; entropy and contrast of the ω-k image relative to the true-track
-image; azimuth PSLR of the three brightest points against the true-track image; run time
+image; azimuth PSLR of the three brightest points with a clean true-track response
+(PSLR ≤ −10 dB) against the true-track image, the unobservable trend aligned; run time
 (wall, the first draw includes compilation). The "single-history floor" is the residual
 of the best phase history shared by all ranges (the true line-of-sight phase averaged over
 the swath): no single-history method (PGA, sharpness of one history) can go below it.
