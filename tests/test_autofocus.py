@@ -179,7 +179,9 @@ def _exact_products_fit(radar, rng):
     truth = sj.Motion(
         horizontal=sj.smooth_deviation(x, key=rng, rms=0.02, max_cycles=2, aperture=footprint),
         vertical=sj.smooth_deviation(x, key=rng, rms=0.02, max_cycles=2, aperture=footprint))
-    ranges = float(radar.near_range) + np.arange(radar.num_range) * float(radar.range_spacing)
+    ranges = np.asarray(sj.Acquisition(num_pulses=x.size, num_range=radar.num_range,
+                                       near_range=radar.near_range,
+                                       azimuth_center=0.0).range_axis(radar))
     ranges = ranges[ranges * np.cos(_sharpness.MIN_LOOK_ANGLE) >= float(radar.height)]
     rows = np.sort(rng.choice(ranges.size, 12, replace=False))
     centres = rng.uniform(x[0], x[-1], rows.size)

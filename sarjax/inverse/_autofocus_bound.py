@@ -214,6 +214,14 @@ def _band_matrix(band):
     return out
 
 
+def _coefficient_information(radar, design, info_ranges, information):
+    """(2b, 2b) information on the B-spline coefficients of Δy, Δz from the (range, pulse)
+    ``information`` on φ: ``Σ_r Σ_p info(r, p) k₀² [−sin ϑ B, cos ϑ B]ᵀ[−sin ϑ B, cos ϑ B]``."""
+    per_pulse = _look_weights(radar, info_ranges) @ information  # (3, pulse)
+    f = [design.T @ (w[:, None] * design) for w in per_pulse]
+    return float(radar.wavenumber) ** 2 * np.block([[f[0], f[1]], [f[1], f[2]]])
+
+
 def _point_information(radar, design, info_ranges, information):
     """(2b, 2b) information on the B-spline coefficients that one point's (range, pulse)
     ``information`` carries when its phase constant and slope are unknown (module
@@ -223,9 +231,7 @@ def _point_information(radar, design, info_ranges, information):
     t = np.arange(n, dtype=float)
     nuisance = np.stack([np.ones(n), (t - t.mean()) / n], axis=1)  # (pulse, 2)
     look = np.arccos(np.clip(float(radar.height) / np.asarray(info_ranges), -1.0, 1.0))
-    per_pulse = _look_weights(radar, info_ranges) @ information  # (3, pulse)
-    f_cc = [design.T @ (w[:, None] * design) for w in per_pulse]
-    f_cc = k0**2 * np.block([[f_cc[0], f_cc[1]], [f_cc[1], f_cc[2]]])
+    f_cc = _coefficient_information(radar, design, info_ranges, information)
     sin_w = np.sin(look) @ information  # (pulse,) Σ_r info sin ϑ
     cos_w = np.cos(look) @ information
     f_cn = k0 * np.concatenate([-design.T @ (sin_w[:, None] * nuisance),
@@ -253,14 +259,12 @@ def phase_bound(radar, information, info_ranges, num_basis: int, blocks, *,
     design = np.asarray(BSpline(num_basis).bind(x).design(x))
     k0 = float(radar.wavenumber)
     height = float(radar.height)
-    # F = Σ_r Σ_p info(r, p) k0² [−sin B, cos B]ᵀ[−sin B, cos B]
-    known = information if information is not None else np.zeros((len(info_ranges), n))
-    per_pulse = _look_weights(radar, info_ranges) @ known  # (3, pulse)
-    blocks_f = [design.T @ (w[:, None] * design) for w in per_pulse]
+    fisher = np.zeros((2 * num_basis, 2 * num_basis))
+    if information is not None:
+        fisher += _coefficient_information(radar, design, info_ranges, information)
     if clutter is not None:
-        blocks_f = [f + design.T @ _band_matrix(band[:n]) @ design
-                    for f, band in zip(blocks_f, clutter, strict=True)]
-    fisher = k0**2 * np.block([[blocks_f[0], blocks_f[1]], [blocks_f[1], blocks_f[2]]])
+        band_f = [design.T @ _band_matrix(band[:n]) @ design for band in clutter]
+        fisher += k0**2 * np.block([[band_f[0], band_f[1]], [band_f[1], band_f[2]]])
     for info in points or ():
         fisher = fisher + _point_information(radar, design, info_ranges, np.asarray(info))
     fisher += ridge * np.trace(fisher) / fisher.shape[0] * np.eye(fisher.shape[0])
