@@ -10,6 +10,8 @@ bright points, SNR 10 dB) are the ``slow`` tests and ``benchmarks/bench_autofocu
 from __future__ import annotations
 
 import dataclasses
+import json
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -119,9 +121,13 @@ def test_energy_is_independent_of_the_motion(radar):
 def test_no_harm_without_motion_error(radar):
     """Data with no motion error: the estimate is ≈ 0 (line-of-sight phase ≤ 0.1 rad
     after the unobservable terms are removed, aperture-detrended) and the refocused image is
-    not less sharp than the true-track one (entropy within 0.5 %)."""
+    not less sharp than the true-track one (entropy within 0.5 %). The restart (1 rad rms of
+    phase, its floor, from the straight track) comes back to it: they agree, no warning."""
     raw = _noisy(radar, _scene(radar, 3), sj.Motion(), 3)
-    result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sj.inverse.AutofocusWarning)
+        result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
+    assert result.agreement.shape == (3,) and np.all(result.agreement <= 0.1), result.agreement
     blocks = af.range_blocks(radar, raw.range)
     residual = af.residual_phase_rms(radar, result, sj.Motion(horizontal=np.zeros(NUM_PULSES)),
                                      blocks)
@@ -139,7 +145,8 @@ def test_started_at_the_true_track_it_stays_there(radar):
     raw = _noisy(radar, _scene(radar, 5), truth, 5)
     blocks = af.range_blocks(radar, raw.range)
     result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False,
-                                  initial=truth)
+                                  initial=truth, restarts=0)
+    assert result.agreement is None
     assert np.all(af.residual_phase_rms(radar, af.no_estimate(raw), truth, blocks) > 1.0)
     residual = af.residual_phase_rms(radar, result, truth, blocks)
     assert np.all(residual <= 0.1), residual
@@ -223,6 +230,26 @@ def test_motion_increment_recovers_the_motion_from_exact_products(seed):
     assert np.median(worst) <= 0.13 and max(worst) <= 0.45, np.round(worst, 3)
 
 
+def test_starts_that_disagree_are_reported(radar):
+    """A restart that cannot converge (30 cm rms: a blur of ≈ ±100 m, beyond the first
+    48 m window) ends elsewhere: the disagreement (> 1 rad) exceeds ``agreement_tolerance``
+    and an AutofocusWarning names it; the estimate kept is the first start's, whose
+    windows are sharper (the same as without restarts, residual within 0.1 rad of the
+    truth); ``strict=True`` refuses instead."""
+    truth = _motion(radar, 0.008, 6)
+    raw = _noisy(radar, _scene(radar, 6), truth, 6)
+    blocks = af.range_blocks(radar, raw.range)
+    options = dict(max_steps=20, estimate_pointing=False, restart_rms=0.3)
+    with pytest.warns(sj.inverse.AutofocusWarning, match="starts differ"):
+        result = sj.inverse.autofocus(radar, raw, **options)
+    assert np.max(result.agreement) > 1.0, result.agreement
+    assert result.history[-1][0] == "start 0 of 2 kept"
+    assert np.all(af.residual_phase_rms(radar, result, truth, blocks) <= 0.1)
+    assert result.attributes()["autofocus_agreement_rad"] == list(result.agreement)
+    with pytest.raises(ValueError, match="agreement_tolerance"):
+        sj.inverse.autofocus(radar, raw, strict=True, **options)
+
+
 def test_bad_inputs(radar):
     raw = _noisy(radar, _scene(radar, 4), sj.Motion(), 4)
     with pytest.raises(ValueError, match="objective"):
@@ -237,6 +264,10 @@ def test_bad_inputs(radar):
         sj.inverse.autofocus(radar, raw, min_window=0.0)
     with pytest.raises(ValueError, match="raw"):
         sj.inverse.autofocus(radar, raw.data)
+    for bad in (dict(restarts=-1), dict(restarts=1.5), dict(restart_rms=0.0),
+                dict(agreement_tolerance=0.0)):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            sj.inverse.autofocus(radar, raw, **bad)
     with pytest.raises(ValueError, match="detrend"):
         af.residual_phase_rms(radar, af.no_estimate(raw), sj.Motion(), [[4800, 4900]],
                               detrend="none")
@@ -252,7 +283,9 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
     io.save(tmp_path / "raw.nc", raw, radar=radar)
     code = sarjax.cli.main(["autofocus", str(tmp_path / "raw.nc"), "-o",
                             str(tmp_path / "image.nc"), "--max-steps", "5"])
-    assert code == 0, capsys.readouterr().err
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "2 starts agree within" in out, out
     stored = io.load(tmp_path / "image.nc")
     motion = sj.Motion(horizontal=stored.motion.horizontal, vertical=stored.motion.vertical)
     assert np.std(np.asarray(motion.horizontal)) > 0
@@ -260,6 +293,7 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
     np.testing.assert_allclose(np.asarray(stored.product.data), np.asarray(direct.data),
                                rtol=1e-6, atol=1e-9 * float(np.abs(direct.data).max()))
     assert stored.attrs["autofocus_method"] == "model"
+    assert len(json.loads(stored.attrs["autofocus_agreement_rad"])) == 3  # JSON attribute
 
 
 # ---- full size (slow): the acceptance setup of issue 18 -----------------------------------

@@ -206,8 +206,10 @@ def focus(raw_file, out, method, moco, weighting, nominal_track, force):
               show_default=True, help="image-sharpness objective")
 @click.option("--max-steps", type=click.IntRange(min=0), default=200, show_default=True,
               help="L-BFGS iterations of the sharpness stage")
+@click.option("--restarts", type=click.IntRange(min=0), default=1, show_default=True,
+              help="further estimates from random starts; a warning when they disagree")
 @_force
-def autofocus(raw_file, out, objective, max_steps, force):
+def autofocus(raw_file, out, objective, max_steps, restarts, force):
     """Estimate Δy, Δz and the pointing error from a raw-data file of an unknown scene
     (sarjax.inverse.autofocus) and write the refocused image with the estimated motion."""
     from .. import io
@@ -215,11 +217,14 @@ def autofocus(raw_file, out, objective, max_steps, force):
 
     _check_output(out, force)
     run = _load(raw_file, "RawData")
-    result = autofocus_(run.radar, run.product, objective=objective, max_steps=max_steps)
+    result = autofocus_(run.radar, run.product, objective=objective, max_steps=max_steps,
+                        restarts=restarts)
     io.save(out, result.image, radar=run.radar, motion=result.motion,
             attrs={"source": str(raw_file), **result.attributes()}, overwrite=force)
+    agreement = ("" if result.agreement is None else
+                 f"; {restarts + 1} starts agree within {float(max(result.agreement)):.3g} rad")
     click.echo(f"wrote {out}: image {result.image.shape[0]} × {result.image.shape[1]} "
-               f"(autofocus, {result.timings['total']:.1f} s)")
+               f"(autofocus, {result.timings['total']:.1f} s{agreement})")
 
 
 def _focus_attributes(run, raw_file, method, moco, weighting, motion):
