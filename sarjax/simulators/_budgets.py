@@ -428,17 +428,18 @@ def scene_samples(scene, max_points=1024):
     raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
 
 
-# the (pulse, scatterer) arrays of LobeGeometry, each one fused program (NumPy spent
-# ≈ 6 ms per array on 972 × 1024 pairs forming temporaries; these ≈ 1 ms); scalars are
-# passed as 0-d arrays, so that one program serves every value
-_line_of_sight_deviation = _exported.cached(eqx.filter_jit(geometry.line_of_sight_deviation))
-
-
-@_exported.cached
-@eqx.filter_jit
-def _in_main_lobe(along, rs, ratio, tan_d):
-    """|u| ≤ 1, ``u = (L/λ)(a/r + T)/(1 − aT/r)``."""
-    return jnp.abs(ratio * (along / rs + tan_d) / (1 - along * tan_d / rs)) <= 1.0
+def lobe_pairs(pairs):
+    """(along, lobe, los) of every (pulse, scatterer) pair from the 1-D
+    :attr:`LobeGeometry.pairs` (traceable: the tracks' budget programs form them inside,
+    fused with their use, so that no (pulse, scatterer) array is materialised):
+    ``a = x' − x``, the main-lobe mask ``|u| ≤ 1`` and ``δr_xr(x', r)``."""
+    x_p, xs, rs, hs, dy, dz, ratio, tan_d, height = pairs
+    along = x_p[:, None] - xs[None, :]
+    rows = rs[None, :]
+    lobe = jnp.abs(ratio * (along / rows + tan_d) / (1 - along * tan_d / rows)) <= 1.0
+    los = geometry.line_of_sight_deviation(dy[:, None], dz[:, None], rows, hs[None, :],
+                                           height)
+    return along, lobe, los
 
 
 def lobe_peak(lobe, values):
@@ -447,18 +448,23 @@ def lobe_peak(lobe, values):
     return jnp.max(jnp.abs(jnp.where(lobe, values, 0.0)), initial=0.0)
 
 
-_lobe_peak = _exported.cached(eqx.filter_jit(lobe_peak))
+@_exported.cached
+@eqx.filter_jit
+def _line_of_sight_peak(pairs):
+    """max |δr_xr| over the main lobe, in one program."""
+    _, lobe, los = lobe_pairs(pairs)
+    return lobe_peak(lobe, los)
 
 
 class LobeGeometry:
-    """Deviation terms of every (pulse, scatterer) pair within the squinted main lobe,
-    ``|u| ≤ 1`` with ``u = (L/λ)(a/r + T)/(1 − aT/r)`` (``a = x' − x``, ``T = tan φ_d``),
-    NumPy float64, shape (pulse, scatterer).
+    """The (pulse, scatterer) pairs within the squinted main lobe, ``|u| ≤ 1`` with
+    ``u = (L/λ)(a/r + T)/(1 − aT/r)`` (``a = x' − x``, ``T = tan φ_d``), as the 1-D
+    inputs :func:`lobe_pairs` forms them from inside a budget's program.
 
     Attributes:
-        along: ``a = x' − x`` [m]; lobe: the mask ``|u| ≤ 1``.
-        los: ``δr_xr(x', r)`` [m]; delta_r: ``δr(x')`` (pulse, 1) [m].
-        pointing: δ_az (pulse,) [rad].
+        pairs: (x' (pulse,), x, r, h (scatterer,), Δy, Δz (pulse,), L/λ, T, H), NumPy
+            float64 (scalars 0-d, so that one compiled program serves every value).
+        delta_r: ``δr(x')`` (pulse, 1) [m]; pointing: δ_az (pulse,) [rad].
         k0, eta_max, dx, squint, x_p, xs, rs: the constants and sample positions.
     """
 
@@ -474,24 +480,9 @@ class LobeGeometry:
         self.eta_max = 2 * np.pi / lam * float(radar.bandwidth) / float(radar.carrier_frequency)
         self.squint = float(np.asarray(radar.squint))
         self.xs, self.rs, self._hs = scene_samples(scene)
-
-    # the (pulse, scatterer) arrays, formed when a budget first asks for them
-
-    @functools.cached_property
-    def along(self):
-        return self.x_p[:, None] - self.xs[None, :]
-
-    @functools.cached_property
-    def lobe(self):
-        ratio = float(self._radar.antenna_length) / self._lam
-        return np.asarray(_in_main_lobe(self.along, self.rs[None, :], np.asarray(ratio),
-                                        np.asarray(math.tan(self.squint))))
-
-    @functools.cached_property
-    def los(self):
-        return np.asarray(_line_of_sight_deviation(
-            self._dy[:, None], self._dz[:, None], self.rs[None, :], self._hs[None, :],
-            np.asarray(float(self._radar.height))))
+        self.pairs = (self.x_p, self.xs, self.rs, self._hs, self._dy, self._dz,
+                      np.asarray(float(radar.antenna_length) / lam),
+                      np.asarray(math.tan(self.squint)), np.asarray(float(radar.height)))
 
     @functools.cached_property
     def delta_r(self):
@@ -499,9 +490,9 @@ class LobeGeometry:
         return np.asarray(geometry.line_of_sight_deviation(
             self._dy, self._dz, float(radar.reference_range), 0.0, float(radar.height)))[:, None]
 
-    def lobe_max(self, values) -> float:
-        """max |values| over the main lobe (0 if no pair is in it)."""
-        return float(_lobe_peak(self.lobe, np.asarray(values, float)))
+    def line_of_sight_peak(self) -> float:
+        """max |δr_xr| over the main lobe [m] (0 if no pair is in it)."""
+        return float(_line_of_sight_peak(self.pairs))
 
 
 # ---- the pointing expansion -------------------------------------------------------------

@@ -54,6 +54,7 @@ from ._budgets import (
     Budget,
     LobeGeometry,
     azimuth_budgets,
+    lobe_pairs,
     lobe_peak,
     pointing_budget,
 )
@@ -109,7 +110,7 @@ class StraightTrack(AbstractTrack):
         return 0
 
     def phase_budgets(self, sim, lobe):
-        value = 0.0 if lobe.still else lobe.k0 * lobe.lobe_max(lobe.los)
+        value = 0.0 if lobe.still else lobe.k0 * lobe.line_of_sight_peak()
         return [Budget("epsilon_motion", value, PHASE_THRESHOLD,
                        "(4π/λ) max|δr_xr|: the deviation is not modelled")]
 
@@ -166,12 +167,14 @@ def straight_track_budgets(radar, scene, motion, acquisition):
 
 @_exported.cached
 @eqx.filter_jit
-def _small_deviation_maxima(along, rs, los, delta_r, lobe, beam_pulse, c_d):
+def _small_deviation_maxima(pairs, delta_r, beam_pulse, c_d):
     """Algorithm A's three lobe maxima over the (pulse, scatterer) pairs, in one fused
     program: max|R − R_n − cos φ_d δr_xr|, max(|ψ|/c + |δr||1/c − 1/c_d|) and
     max|ψ(x', r) − ψ(x_c, r)| (``c = r/R_n``; ``beam_pulse`` the beam-centre pulse of
     each scatterer in pulse spacings from the first, ψ interpolated linearly there, edge
-    values outside)."""
+    values outside; the pairs from :func:`~._budgets.lobe_pairs`)."""
+    along, lobe, los = lobe_pairs(pairs)
+    rs = pairs[2][None, :]
     nominal = jnp.sqrt(rs**2 + along**2)
     exact = rs + geometry.range_offset(along, rs, los)
     cos_look = rs / nominal
@@ -209,8 +212,8 @@ class SmallDeviationTrack(AbstractTrack):
         # ψ at the beam-centre pulse x_c = x − r tan φ_d of each scatterer
         x_beam = lobe.xs - lobe.rs * math.tan(lobe.squint)
         coupling, envelope, variation = (float(v) for v in _small_deviation_maxima(
-            lobe.along, lobe.rs[None, :], lobe.los, lobe.delta_r, lobe.lobe,
-            np.asarray((x_beam - lobe.x_p[0]) / lobe.dx), np.asarray(c_d)))
+            lobe.pairs, lobe.delta_r, np.asarray((x_beam - lobe.x_p[0]) / lobe.dx),
+            np.asarray(c_d)))
         return [
             Budget("epsilon_11", lobe.k0 * coupling,
                    PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"),
@@ -223,14 +226,17 @@ class SmallDeviationTrack(AbstractTrack):
 
 @_exported.cached
 @eqx.filter_jit
-def _moderate_deviation_maxima(along, rs, los, delta_r, lobe, constants):
+def _moderate_deviation_maxima(pairs, delta_r, constants):
     """Algorithm B's lobe maxima over the (pulse, scatterer) pairs, in one program:
     max|R − R_n − δr_xr c|, the spread max|δr_xr − mean over pulses|,
     max|R − R_n − cos φ_d δr_xr|, and the envelope terms' maxima (corrected, uncorrected,
     their sum); ``c = r/R_n``, slopes along the pulses as ``numpy.gradient``. Blocks of
     scatterers at a time (all pulses each: the slopes and the mean are along them), so
-    that the dozen intermediates stay in cache."""
+    that the dozen intermediates stay in cache. The pairs from
+    :func:`~._budgets.lobe_pairs`."""
     k0, c_d, dx = constants
+    along, lobe, los = lobe_pairs(pairs)
+    rs = pairs[2][None, :]
     n_pulses, n_scatterers = los.shape
     width = min(_SCATTERER_BLOCK, n_scatterers)
     blocks = -(-n_scatterers // width)
@@ -328,8 +334,7 @@ class ModerateDeviationTrack(AbstractTrack):
         squint = lobe.squint
         c_d = math.cos(squint)
         k0, dx = lobe.k0, lobe.dx
-        maxima = _moderate_deviation_maxima(lobe.along, lobe.rs[None, :], lobe.los,
-                                            lobe.delta_r, lobe.lobe,
+        maxima = _moderate_deviation_maxima(lobe.pairs, lobe.delta_r,
                                             np.asarray([k0, c_d, dx]))
         rest, spread, straight, corrected, uncorrected, both = (float(v) for v in maxima)
         if sim.coupling_order:
