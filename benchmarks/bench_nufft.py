@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import subprocess
 import sys
@@ -165,19 +166,26 @@ def _finufft(repeats=5):
                                lambda out: np.asarray(out)[check + modes // 2]))
         for label, fn, points, pick in candidates:
             out = jax.block_until_ready(fn(c, points))
-            s = steady(lambda fn=fn, points=points: fn(c, points), repeats)
+            s = steady(lambda fn=fn, points=points, c=c: fn(c, points), repeats)
             error = float(np.max(np.abs(pick(out) - direct)) / np.max(np.abs(direct)))
             rows.append(dict(label=label, dtype=dtype, steady=s.min, cpu=s.cpu, error=error))
     return rows
 
 
-def _run_child(args):
-    """Run one case in a child process under /usr/bin/time -v; returns (result, peak GB)."""
+def _run_child(args, devices=None):
+    """Run one case in a child process under /usr/bin/time -v; returns (result, peak GB).
+    ``devices``: that many forced host devices in the child (XLA_FLAGS)."""
     cmd = [sys.executable, __file__, "--child", json.dumps(args)]
     timer = Path("/usr/bin/time")
     if timer.exists():
         cmd = [str(timer), "-v", *cmd]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
+    env = dict(os.environ)
+    if devices:
+        env["XLA_FLAGS"] = " ".join(
+            [f for f in env.get("XLA_FLAGS", "").split()
+             if not f.startswith("--xla_force_host_platform_device_count")]
+            + [f"--xla_force_host_platform_device_count={devices}"])
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, env=env)
     out = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
     if proc.returncode != 0 or not out:
         raise RuntimeError(f"child failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
@@ -205,7 +213,11 @@ def _section(machine, rows, accuracy, load, size, finufft_rows=None):
         f"({size[0] * size[1]} scatterers, raw pixel spacing, pyramid heights 50 m), raw grid "
         f"{size[0]} × {size[1]}, cm-level smooth Δy, Δz and the seed 000 eq. 55 jitter; "
         "`method=\"time_domain_nufft\"` with its defaults (tolerance 1e-4, ±2 chirp "
-        "bands). Each row runs in its own process under `/usr/bin/time -v`.",
+        "bands). Each row runs in its own process under `/usr/bin/time -v`; \"host "
+        "devices\": the process started with `XLA_FLAGS=--xla_force_host_platform_device_"
+        "count=n`, so that `simulate` (devices=None: all) splits the pulses between n CPU "
+        "devices, which run concurrently (one device runs one program at a time, and the "
+        "spreading's scatter-add is one core's loop).",
         "",
         "| dtype | first call (compile + run) [s] | steady [s] | CPU of steady [s] | "
         "max/min wall | peak RSS [GB] | targets (≤ 30 s, ≤ 4 GB) |",
@@ -270,10 +282,15 @@ def main(argv=None):
     load0 = load_average()
     info = machine()
     rows = []
-    for dtype in ("complex128", "complex64"):
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    cases = [("complex128", None), ("complex64", None)]
+    if cores > 1:  # one device runs one program at a time; the spreading is one loop
+        cases.append(("complex64", cores))
+    for dtype, devices in cases:
         result, peak = _run_child(dict(pulses=size[0], ranges=size[1], dtype=dtype,
-                                       repeats=args.repeats))
-        result.update(dtype=dtype, peak=peak)
+                                       repeats=args.repeats), devices)
+        label = dtype if devices is None else f"{dtype}, {devices} host devices"
+        result.update(dtype=label, peak=peak)
         rows.append(result)
         print(f"{dtype}: first {result['first']:.1f} s, steady {result['steady']:.1f} s "
               f"(cpu {result['cpu']:.1f} s), peak RSS {peak:.2f} GB", flush=True)
