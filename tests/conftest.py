@@ -58,5 +58,12 @@ _MODULE_SECONDS = {
 }
 
 
+def pytest_configure(config):
+    # pytest-xdist (≥ 3.2) reorders ``--dist loadfile`` modules by their number of tests,
+    # which put the site's build (3 tests, the longest module) last; keep the order below
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
 def pytest_collection_modifyitems(session, config, items):
     items.sort(key=lambda item: -_MODULE_SECONDS.get(item.path.name, 0))  # stable
