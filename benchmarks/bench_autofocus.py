@@ -226,7 +226,7 @@ def table(rows, info, complete, draws):
             lines.append(f"| {row['seed']} | {name} | {fmt(m['aperture'])} | "
                          f"({fmt(m['global_'], 2)}) | {100 * m['entropy']:+.3f} % | "
                          f"{shown} | {m['time']:.1f} | {'yes' if ok else 'no'} |")
-        lines.append(f"| {row['seed']} | model-based, agreement of 2 starts | "
+        lines.append(f"| {row['seed']} | model-based, agreement of 3 starts | "
                      f"{fmt(row['agreement'])} | | | | | "
                      f"{'warned' if row['warned'] else 'no warning'} |")
         lines.append(f"| {row['seed']} | single-history floor | {fmt(row['floor'])} | | | | "

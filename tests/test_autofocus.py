@@ -121,8 +121,8 @@ def test_energy_is_independent_of_the_motion(radar):
 def test_no_harm_without_motion_error(radar):
     """Data with no motion error: the estimate is ≈ 0 (line-of-sight phase ≤ 0.1 rad
     after the unobservable terms are removed, aperture-detrended) and the refocused image is
-    not less sharp than the true-track one (entropy within 0.5 %). The restart (1 rad rms of
-    phase, its floor, from the straight track) comes back to it: they agree, no warning."""
+    not less sharp than the true-track one (entropy within 0.5 %). The restarts (1 rad rms of
+    phase, its floor, from the straight track) come back to it: they agree, no warning."""
     raw = _noisy(radar, _scene(radar, 3), sj.Motion(), 3)
     with warnings.catch_warnings():
         warnings.simplefilter("error", sj.inverse.AutofocusWarning)
@@ -231,8 +231,8 @@ def test_motion_increment_recovers_the_motion_from_exact_products(seed):
 
 
 def test_starts_that_disagree_are_reported(radar):
-    """A restart that cannot converge (30 cm rms: a blur of ≈ ±100 m, beyond the first
-    48 m window) ends elsewhere: the disagreement (> 1 rad) exceeds ``agreement_tolerance``
+    """Restarts that cannot converge (30 cm rms: a blur of ≈ ±100 m, beyond the first
+    48 m window) end elsewhere: the disagreement (> 1 rad) exceeds ``agreement_tolerance``
     and an AutofocusWarning names it; the estimate kept is the first start's, whose
     windows are sharper (the same as without restarts, residual within 0.1 rad of the
     truth); ``strict=True`` refuses instead."""
@@ -243,7 +243,7 @@ def test_starts_that_disagree_are_reported(radar):
     with pytest.warns(sj.inverse.AutofocusWarning, match="starts differ"):
         result = sj.inverse.autofocus(radar, raw, **options)
     assert np.max(result.agreement) > 1.0, result.agreement
-    assert result.history[-1][0] == "start 0 of 2 kept"
+    assert result.history[-1][0] == "start 0 of 3 kept"
     assert np.all(af.residual_phase_rms(radar, result, truth, blocks) <= 0.1)
     assert result.attributes()["autofocus_agreement_rad"] == list(result.agreement)
     with pytest.raises(ValueError, match="agreement_tolerance"):
@@ -285,7 +285,7 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
                             str(tmp_path / "image.nc"), "--max-steps", "5"])
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert "2 starts agree within" in out, out
+    assert "3 starts agree within" in out, out
     stored = io.load(tmp_path / "image.nc")
     motion = sj.Motion(horizontal=stored.motion.horizontal, vertical=stored.motion.vertical)
     assert np.std(np.asarray(motion.horizontal)) > 0

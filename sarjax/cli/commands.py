@@ -206,7 +206,7 @@ def focus(raw_file, out, method, moco, weighting, nominal_track, force):
               show_default=True, help="image-sharpness objective")
 @click.option("--max-steps", type=click.IntRange(min=0), default=200, show_default=True,
               help="L-BFGS iterations of the sharpness stage")
-@click.option("--restarts", type=click.IntRange(min=0), default=1, show_default=True,
+@click.option("--restarts", type=click.IntRange(min=0), default=2, show_default=True,
               help="further estimates from random starts; a warning when they disagree")
 @_force
 def autofocus(raw_file, out, objective, max_steps, restarts, force):
