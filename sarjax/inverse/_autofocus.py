@@ -325,7 +325,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             first estimate failed (0.6–2.8 rad from the truth) were flagged (0.15–3.9 rad
             apart), and 2 of the 15 whose first estimate converged (≤ 0.35 rad), where one
             restart went elsewhere (the kept estimates 0.09 and 0.10 rad from the truth);
-            the other 13 agreed within 0.002–0.076 rad. With one restart 4 of the 5
+            the other 13 agreed within 0.003–0.070 rad. With one restart 4 of the 5
             failures were flagged (both starts of draw 116 ended 0.8 rad off, 0.07 rad
             apart) and none of the 15. It tests uniqueness, not accuracy: an error every
             start shares passes.
