@@ -395,15 +395,13 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
                         target_window / spacing)), step_check=step_check,
                     sharpness_passes=sharpness_passes, min_window=min_window,
                     gradient_targets=gradient_targets)
-    runs, notes = [], []
+    runs, notes, profiles = [], [], []  # profiles: each run's (Δy, Δz) without the trend
     for k in range(restarts + 1):
         dy0, dz0 = start_y, start_z
         if k > 0:  # the k-th restart: a smooth random deviation added to the start
             scale = restart_rms
             if scale is None:  # the first estimate's size, at least 1 rad of phase
-                first = np.concatenate([_remove_trend(d @ c) for d, c in (
-                    (design_y, runs[0].c_y), (design_z, runs[0].c_z))])
-                scale = max(float(np.sqrt(np.mean(first**2))),
+                scale = max(float(np.sqrt(np.mean(np.concatenate(profiles[0]) ** 2))),
                             1.0 / float(radar.wavenumber))
             rng = np.random.default_rng(k - 1)
             dy0 = dy0 + smooth_deviation(x, key=rng, rms=scale, max_cycles=1,
@@ -416,12 +414,12 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             warnings.simplefilter("always")
             runs.append(_estimate(focuser, design_y, design_z, start, **settings))
         notes.append(caught)
+        profiles.append((_remove_trend(design_y @ runs[-1].c_y),
+                         _remove_trend(design_z @ runs[-1].c_z)))
         for stage in ("gradients", "sharpness"):
             timings[stage] = timings.get(stage, 0.0) + runs[-1].timings[stage]
 
     t0 = time.perf_counter()
-    profiles = [(_remove_trend(design_y @ run.c_y), _remove_trend(design_z @ run.c_z))
-                for run in runs]
     kept, agreement = 0, None
     if len(runs) > 1:
         kept, agreement = _choose(radar, raw, focuser, profiles, settings)
