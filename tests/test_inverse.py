@@ -348,3 +348,21 @@ def test_cold_start_recovers_from_unwrapping_slip():
     assert abs(result.jitter["amplitude"] / amplitude - 1) < 0.05
     assert abs(result.jitter["period"] / period - 1) < 0.01
     assert abs(np.angle(np.exp(1j * (result.jitter["phase"] - phase)))) < 0.1
+
+
+@pytest.mark.parametrize("level, flagged", [(1.0, True), (1e-9, False)])
+def test_slip_stretch_flagged_only_above_the_noise(monkeypatch, level, flagged):
+    """A ±8-pulse stretch with 5× the median pulse's χ² is a slip when the pulses sit at
+    the noise level (χ² per pulse ≈ (M − K) / pulses); on noise-free data (the median pulse
+    1e-9 of that) the same relative bump is the model's rounding and no recovery runs."""
+    from sarjax.inverse import _recovery
+
+    pulses, per_pulse_noise = 400, 102.0
+    chi2 = np.full(pulses, level * per_pulse_noise)
+    chi2[200:217] *= 5.0
+    monkeypatch.setattr(_recovery._residual, "pulse_chi2", lambda args, y: chi2)
+    fit = _recovery.JointFit(y={}, args=None, steps=3, converged=True,
+                             chi2=float(chi2.sum()))
+    floor = pulses * per_pulse_noise
+    assert bool(_recovery.excess(fit, 8, floor).any()) is flagged
+    assert _recovery.slipped(fit, floor) is flagged
