@@ -51,6 +51,7 @@ class Sinc2Pattern(AbstractPattern):
     occupies ``|ξ| ≤ Ω_x = 4π/L`` (seed 000 eq. 9).
     """
 
+    @eqx.filter_jit  # one program per shape where called eagerly (op by op: ~20)
     def __call__(self, u):
         # Near u = 0 a Taylor polynomial, so that autodiff derivatives of any order stay
         # accurate (the quotient sin(πu)/(πu) loses them to cancellation as u → 0).
@@ -68,5 +69,6 @@ class GaussianPattern(AbstractPattern):
 
     width: object = eqx.field(converter=lambda v: jnp.asarray(v, dtype=float), default=0.37)
 
+    @eqx.filter_jit
     def __call__(self, u):
         return jnp.exp(-0.5 * (u / self.width) ** 2)

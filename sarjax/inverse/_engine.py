@@ -58,6 +58,7 @@ class Problem(eqx.Module):
         return self.scene.num_scatterers
 
 
+@eqx.filter_jit
 def unitary_range_filter(radar, num_range: int):
     """(range,) phase-only matched filter on a circular grid of ``num_range`` samples."""
     mf = matched_filter(radar, num_range)

@@ -90,6 +90,7 @@ class _Linear(AbstractParametrisation):
     def _coefficients(self, params):
         return params if self.gauge is None else self.gauge @ params
 
+    @eqx.filter_jit
     def __call__(self, params, azimuth):
         self._check_bound()
         return self.design(azimuth) @ self._coefficients(params)
@@ -146,6 +147,7 @@ class BSpline(_Linear):
     def num_basis(self) -> int:
         return self.num_basis_
 
+    @eqx.filter_jit
     def design(self, azimuth):
         n = self.num_basis_
         spacing = (self.stop - self.start) / (n - 3)
@@ -187,6 +189,7 @@ class Fourier(_Linear):
     def num_basis(self) -> int:
         return self.num_terms
 
+    @eqx.filter_jit
     def design(self, azimuth):
         t = jnp.clip((jnp.asarray(azimuth) - self.start) / (self.stop - self.start), 0.0, 1.0)
         return jnp.cos(jnp.pi * t[:, None] * jnp.arange(self.num_terms)[None, :])
@@ -257,6 +260,7 @@ class SinusoidalJitter(AbstractParametrisation):
     def num_params(self) -> int:
         return 3
 
+    @eqx.filter_jit
     def __call__(self, params, azimuth):
         a, b, nu = params[0], params[1], params[2]
         arg = 2 * jnp.pi * nu * (jnp.asarray(azimuth) - self.centre)
@@ -269,6 +273,7 @@ class SinusoidalJitter(AbstractParametrisation):
             (jnp.asarray(0.5 * (x.min() + x.max())), jnp.asarray(1.0 / np.ptp(x))),
         )
 
+    @eqx.filter_jit
     def from_physical(self, amplitude, period, phase):
         """θ from (δ_m [rad], T_b [s], φ₀ [rad])."""
         nu = 1.0 / (self.velocity * period)
@@ -276,6 +281,7 @@ class SinusoidalJitter(AbstractParametrisation):
         return jnp.stack([amplitude * jnp.cos(phase_c), amplitude * jnp.sin(phase_c),
                           jnp.asarray(nu, dtype=float)])
 
+    @eqx.filter_jit
     def physical(self, params):
         """(δ_m [rad], T_b [s], φ₀ [rad] in (−π, π]) from θ."""
         a, b, nu = params[0], params[1], params[2]
@@ -318,6 +324,7 @@ class MotionModel(eqx.Module):
         return tuple(n for n in ("horizontal", "vertical", "pointing")
                      if getattr(self, n) is not None)
 
+    @eqx.filter_jit
     def profiles(self, params, azimuth):
         """(Δy, Δz, δ_az), each (azimuth,), zeros for unfitted components."""
         zero = jnp.zeros(jnp.shape(azimuth))

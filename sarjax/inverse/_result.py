@@ -132,7 +132,7 @@ def _profile_std(model, params, x, line_of_sight, covariance, names, los_directi
     def profiles(f):
         return _setup.motion3(model, unravel(f), x, los)
 
-    d = np.asarray(jax.jacfwd(profiles)(flat))  # (azimuth, 3, K_motion)
+    d = np.asarray(jax.jit(jax.jacfwd(profiles))(flat))  # (azimuth, 3, K_motion)
     cov = covariance[np.ix_(keep, keep)]
     out = {}
     for i, name in enumerate(("horizontal", "vertical", "pointing")):
@@ -155,7 +155,7 @@ def _jitter_summary(jitter, params, covariance, names):
     cov = covariance[np.ix_(idx, idx)]
     theta = jnp.asarray(params)
     values = jitter.physical(theta)
-    jac = np.asarray(jax.jacfwd(lambda t: jnp.stack(jitter.physical(t)))(theta))
+    jac = np.asarray(jax.jit(jax.jacfwd(lambda t: jnp.stack(jitter.physical(t))))(theta))
     var = np.einsum("ik,kl,il->i", jac, cov, jac)
     std = np.sqrt(np.maximum(var, 0))
     keys = ("amplitude", "period", "phase")

@@ -21,6 +21,7 @@ deviation, so the joint fit starts from estimates made on the range-compressed d
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 import jax
@@ -36,13 +37,18 @@ UPSAMPLE = 16
 def upsample_lines(compressed, factor=UPSAMPLE):
     """Band-limited (FFT zero-padding at the Nyquist bin) upsampling of (azimuth, range)
     lines; sample k/factor of the output is r'_0 + (k/factor)·Δr."""
+    return np.asarray(_upsample_lines(jnp.asarray(compressed), factor))
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _upsample_lines(compressed, factor):
     n = compressed.shape[-1]
     spec = jnp.fft.fft(compressed, axis=-1)
     half = (n + 1) // 2
     padded = jnp.zeros(compressed.shape[:-1] + (n * factor,), spec.dtype)
     padded = padded.at[..., :half].set(spec[..., :half])
     padded = padded.at[..., n * factor - (n - half):].set(spec[..., half:])
-    return np.asarray(jnp.fft.ifft(padded, axis=-1) * factor)
+    return jnp.fft.ifft(padded, axis=-1) * factor
 
 
 def sample_lines(lines_up, position):
@@ -89,8 +95,8 @@ def linear_design(model, azimuth, line_of_sight):
     kv = 0 if (line_of_sight is not None or model.vertical is None) else \
         model.vertical.num_params()
     zh, zv = jnp.zeros(kh), jnp.zeros(kv)
-    jh = jax.jacfwd(dev, argnums=0)(zh, zv)
-    jv = jax.jacfwd(dev, argnums=1)(zh, zv) if kv else jnp.zeros(jh.shape[:-1] + (0,))
+    jh = jax.jit(jax.jacfwd(dev, argnums=0))(zh, zv)
+    jv = jax.jit(jax.jacfwd(dev, argnums=1))(zh, zv) if kv else jnp.zeros(jh.shape[:-1] + (0,))
     return np.concatenate([np.asarray(jh), np.asarray(jv)], axis=-1), kh
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
@@ -28,6 +29,7 @@ def range_fft_length(radar, num_range: int) -> int:
     return next_fast_len(num_range + chirp)
 
 
+@eqx.filter_jit  # n_fft static: one program per length
 def matched_filter(radar, n_fft: int):
     """(n_fft,) range matched filter ``conj(FFT(replica)) / N_tp`` on the circular offset
     grid ``o_k = k · c/(2 f_s)``, k = −n/2 … n/2 − 1 (scaled so a unit echo peaks at ≈ 1)."""
