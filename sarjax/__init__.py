@@ -93,6 +93,3 @@ def __getattr__(name):
 def __dir__():
     return sorted({*globals(), *_LAZY, *_LAZY_NAMES})
 
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))

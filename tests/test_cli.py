@@ -182,7 +182,7 @@ def test_version_and_lazy_modules(capsys):
     assert capsys.readouterr().out.strip() == f"sarjax {version('sarjax')}"
     assert sj.__version__ == version("sarjax")
     assert sj.io.save is io.save and callable(sj.plot.image_db) and callable(sj.export.to_cphd)
-    assert {"io", "plot", "export"} <= set(dir(sj))
+    assert {"io", "plot", "export", "focus", "fit_motion", "MotionModel"} <= set(dir(sj))
     with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
         sj.nonexistent  # noqa: B018
 
