@@ -61,7 +61,9 @@ def fit_motion(
     Jacobian is forward-mode, one simulation plus three tangents per linearisation because
     the model is pulse-local). After a cold start, a slipped phase unwrapping is detected
     (the solver stops short, χ² ends above 1.03 (M − K), or some ±8-pulse stretch has a
-    mean χ² per pulse 1.2 times the median pulse's) and recovered: the profile is refitted
+    mean χ² per pulse 1.2 times the median pulse's and above half what noise alone gives
+    a pulse, (M − K) / pulses: below the noise nothing is left to recover, as on noise-free
+    data) and recovered: the profile is refitted
     on the pulses at the noise level, every scatterer's phase is re-unwrapped about it and
     the joint fit re-started (``recovery k`` stages, at most three); the result is the
     lowest-χ² joint fit.
