@@ -62,10 +62,10 @@ def _rms(v):
 
 def test_cold_start_recovers_motion_at_0db():
     """Acceptance case A (raw SNR 0 dB), one seed, from zero initial motion and no jitter
-    guess, on 1024 of the preset's 1941 pulses (× 830; the full grid is the slow
+    guess, on 1025 of the preset's 1941 pulses (× 830; the full grid is the slow
     acceptance run): the acceptance bounds (LOS ≤ λ/20; Δy, Δz ≤ max(λ/10, 1.5 CRB);
     jitter 5 %, 1 %, 0.1 rad) and consistency with the CRB."""
-    radar = sj.presets.airborne_xband(num_pulses=1024)
+    radar = sj.presets.airborne_xband(num_pulses=1025)
     scene = sj.PointTargets(**SCENE)
     truth, jitter, rng = _truth(radar, 0.02, key=3)
     raw, noise_power = _noisy(radar, scene, truth, rng)
