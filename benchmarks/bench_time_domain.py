@@ -305,7 +305,7 @@ def main(argv=None):
         for dtype_name in DTYPES:
             rows.append(run_case(name, radar, scene, motion, num_pulses, dtype_name,
                                  repeats))
-    for ref, low in zip(rows[0::2], rows[1::2]):  # complex128, complex64 of each case
+    for ref, low in zip(rows[0::2], rows[1::2], strict=True):  # complex128, complex64 of each case
         err = low["data"].astype(np.complex128) - ref["data"]
         nmse = 10 * np.log10(np.sum(np.abs(err) ** 2) / np.sum(np.abs(ref["data"]) ** 2))
         low["error"] = f"{nmse:.1f}, {np.max(np.abs(err)) / np.max(np.abs(ref['data'])):.1e}"

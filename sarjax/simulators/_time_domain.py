@@ -36,7 +36,8 @@ fixed per-sample factor times one phasor per (scatterer, block) and one per (sca
 offset in a block), all from float64 phases, so that the sum over scatterers is a
 masked product of two small tables (a loop for a few scatterers, a complex matrix product
 for many). complex64 evaluates those phasors from phases reduced in float64, so its error
-is the rounding of the tables (≈ 1e-7 relative), not of a float32 range. With ``stop_and_go=True``, a broadside radar and static scatterers the broadside
+is the rounding of the tables (≈ 1e-7 relative), not of a float32 range. With
+``stop_and_go=True``, a broadside radar and static scatterers the broadside
 stop-and-go program runs unchanged (same bits); the general kernel gives the same values
 there up to rounding (every added term is an exact zero).
 """
