@@ -316,16 +316,18 @@ def test_acceptance_cases_full_size(rms, seed):
 
 @pytest.mark.slow
 def test_cold_start_recovers_from_unwrapping_slip():
-    """Case A truth of seed 0, noise draw 50013 (a Monte-Carlo draw of the benchmark): the
+    """Case A truth of seed 0, noise draw 50022 (a Monte-Carlo draw of the benchmark): the
     envelope estimate wiggles at the aperture's start, where the echoes are weak, faster
-    than the phase unwrapping can follow (> π per pulse); the phase stage then puts the first
-    ≈ 20 pulses whole metres off and the joint fit stalls with χ² ≈ 40 % above its floor.
-    The fit must flag it, re-start from the rebuilt profile and meet the acceptance bounds
-    at the CRB level."""
+    than the phase unwrapping can follow (> π per pulse); the phase stage then puts the
+    first pulses whole wavelengths off and the joint fit stalls at its 60-step limit with χ²
+    ≈ 36 % above the noise level. The fit must flag it, re-start from the rebuilt profile
+    and meet the acceptance bounds at the CRB level. (Which draws slip depends on the
+    cold start's rounding: of draws 50000–50053, 50019, 50022 and 50036 slip today; the
+    earlier draw 50013 no longer does since the stages' helpers run as compiled programs.)"""
     radar = sj.presets.airborne_xband()
     scene = sj.PointTargets(**SCENE)
     truth, jitter, _ = _truth(radar, 0.02, key=0)
-    raw, noise_power = _noisy(radar, scene, truth, np.random.default_rng(50_013))
+    raw, noise_power = _noisy(radar, scene, truth, np.random.default_rng(50_022))
     result = sj.fit_motion(radar, scene, raw)
     names = [s.name for s in result.history]
     assert names[:4] == ["envelope", "phase", "jitter", "joint"]
