@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -124,15 +125,9 @@ class StageLog:
 
 def _profile_std(model, params, x, line_of_sight, covariance, names, los_direction):
     motion_params = {n: jnp.asarray(params[n]) for n in model.components}
-    flat, unravel = ravel_pytree(motion_params)
-    x = jnp.asarray(x)
     keep = [i for i, (name, _) in enumerate(names) if name != "reflectivity"]
     los = None if line_of_sight is None else jnp.asarray(line_of_sight)
-
-    def profiles(f):
-        return _setup.motion3(model, unravel(f), x, los)
-
-    d = np.asarray(jax.jit(jax.jacfwd(profiles))(flat))  # (azimuth, 3, K_motion)
+    d = np.asarray(_profile_jacobian(model, motion_params, jnp.asarray(x), los))
     cov = covariance[np.ix_(keep, keep)]
     out = {}
     for i, name in enumerate(("horizontal", "vertical", "pointing")):
@@ -142,6 +137,19 @@ def _profile_std(model, params, x, line_of_sight, covariance, names, los_directi
         dl = -s * d[:, 0] + c * d[:, 1]
         out["line_of_sight"] = np.sqrt(np.maximum(np.einsum("pk,kl,pl->p", dl, cov, dl), 0))
     return out
+
+
+@eqx.filter_jit
+def _profile_jacobian(model, motion_params, x, los):
+    """(azimuth, 3, K_motion) ∂(Δy, Δz, δ_az)/∂θ, θ the motion parameters raveled."""
+    flat, unravel = ravel_pytree(motion_params)
+    return jax.jacfwd(lambda f: _setup.motion3(model, unravel(f), x, los))(flat)
+
+
+@eqx.filter_jit
+def _physical_jacobian(jitter, theta):
+    """(3, 3) ∂(δ_m, T_b, φ₀)/∂θ of a :class:`SinusoidalJitter`."""
+    return jax.jacfwd(lambda t: jnp.stack(jitter.physical(t)))(theta)
 
 
 def _scene_centre_direction(radar):
@@ -155,7 +163,7 @@ def _jitter_summary(jitter, params, covariance, names):
     cov = covariance[np.ix_(idx, idx)]
     theta = jnp.asarray(params)
     values = jitter.physical(theta)
-    jac = np.asarray(jax.jit(jax.jacfwd(lambda t: jnp.stack(jitter.physical(t))))(theta))
+    jac = np.asarray(_physical_jacobian(jitter, theta))
     var = np.einsum("ik,kl,il->i", jac, cov, jac)
     std = np.sqrt(np.maximum(var, 0))
     keys = ("amplitude", "period", "phase")

@@ -24,6 +24,7 @@ import dataclasses
 import functools
 import time
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -81,23 +82,30 @@ def envelope_peaks(lines_up, nominal_position, search):
 def linear_design(model, azimuth, line_of_sight):
     """(azimuth, 2, K) design of (Δy, Δz) on the deviation parameters (gauge included),
     and the split of K between horizontal and vertical."""
-    x = jnp.asarray(azimuth)
-
-    def dev(params_h, params_v):
-        dy = model.horizontal(params_h, x)
-        if line_of_sight is not None:
-            s, c = line_of_sight
-            return jnp.stack([-s * dy, c * dy], axis=-1)
-        dz = model.vertical(params_v, x)
-        return jnp.stack([dy, dz], axis=-1)
-
     kh = model.horizontal.num_params()
     kv = 0 if (line_of_sight is not None or model.vertical is None) else \
         model.vertical.num_params()
-    zh, zv = jnp.zeros(kh), jnp.zeros(kv)
-    jh = jax.jit(jax.jacfwd(dev, argnums=0))(zh, zv)
-    jv = jax.jit(jax.jacfwd(dev, argnums=1))(zh, zv) if kv else jnp.zeros(jh.shape[:-1] + (0,))
+    los = None if line_of_sight is None else jnp.asarray(line_of_sight, dtype=float)
+    jh, jv = _deviation_jacobians(model, jnp.asarray(azimuth), los, kh, kv)
     return np.concatenate([np.asarray(jh), np.asarray(jv)], axis=-1), kh
+
+
+@eqx.filter_jit
+def _deviation_jacobians(model, x, los, kh, kv):
+    """∂(Δy, Δz)/∂θ_h and ∂(Δy, Δz)/∂θ_v, (azimuth, 2, kh) and (azimuth, 2, kv); with a
+    line of sight ``los`` = (sin, cos) only Δy is fitted, along it."""
+
+    def dev(params_h, params_v):
+        dy = model.horizontal(params_h, x)
+        if los is not None:
+            return jnp.stack([-los[0] * dy, los[1] * dy], axis=-1)
+        dz = model.vertical(params_v, x)
+        return jnp.stack([dy, dz], axis=-1)
+
+    zh, zv = jnp.zeros(kh), jnp.zeros(kv)
+    jh = jax.jacfwd(dev, argnums=0)(zh, zv)
+    jv = jax.jacfwd(dev, argnums=1)(zh, zv) if kv else jnp.zeros(jh.shape[:-1] + (0,))
+    return jh, jv
 
 
 def fit_los(design, los_weights, observed, weights, *, per_target_constant, ridge=1e-9):
