@@ -133,7 +133,7 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     name = method if isinstance(method, str) else type(simulator).__name__
     _validate.check_supported(simulator, radar, scene, motion)
     plan = simulator.prepare(radar, scene, acquisition, motion)
-    _validate.check_model(simulator, radar, scene, motion, acquisition, strict)
+    _validate.check_model(simulator, radar, scene, motion, acquisition, strict, dtype)
     motion_bytes = sum(math.prod(np.shape(v)) * 8 for v in jax.tree_util.tree_leaves(motion))
     memory = memory_plan(simulator, plan, radar, scene, motion_bytes, acquisition, dtype,
                          batch_size, devices, memory_limit, name)

@@ -230,7 +230,8 @@ def _realizations(motion):
                       for n, v in parts.items()}) for b in range(batch)]
 
 
-def check_model(simulator, radar, scene, motion, acquisition, strict=False):
+def check_model(simulator, radar, scene, motion, acquisition, strict=False,
+                dtype=jax.numpy.complex128):
     """Checks of a whole :func:`sarjax.simulate` call (after the method is resolved).
 
     * **Swath**: when no scatterer's echo can reach the range window
@@ -238,11 +239,11 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
       :class:`SwathWarning`; strict: a ValueError, also when only some scatterers miss it.
     * **Budgets**: every budget the simulator declares (``simulator.budgets``,
       :func:`sarjax.validity`) must hold for every realization: for the Fourier-domain
-      methods their azimuth grid (aliases, wrap, extent) and the approximation budgets,
-      with the simulator's own options. Outside them a :class:`ValidityWarning` names
-      each budget, its value and threshold, and the methods to use instead; strict: a
-      ValueError. The exact models sample the echo at the pulses, aliasing included:
-      only their range window counts.
+      methods their azimuth grid (aliases, wrap, extent), the approximation budgets,
+      with the simulator's own options, and in complex64 the track methods' rounding.
+      Outside them a :class:`ValidityWarning` names each budget, its value and
+      threshold, and the methods to use instead; strict: a ValueError. The exact models
+      sample the echo at the pulses, aliasing included: only their range window counts.
 
     Checks of traced values are skipped.
     """
@@ -269,7 +270,7 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False):
         return
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
-        report = simulator.budgets(radar, scene, realization, acquisition)
+        report = simulator.budgets(radar, scene, realization, acquisition, dtype)
         broken = [b for b in report.violated if b.name != "range_window"]
         if broken:
             which = f" (realization {index})" if len(realizations) > 1 else ""
@@ -298,8 +299,10 @@ def _outside_validity(simulator, broken, which) -> str:
                    if not c.exact and MOTION_KINDS.index(c.motion) > rank
                    and (c.supports_squint or not simulator.supports_squint)]
     instead += [c.names[0] for c in _registry.SIMULATORS if c.exact]
+    rounding = " or dtype=jnp.complex128" if any(
+        b.name == "complex64_rounding" for b in broken) else ""
     return (f"method={name!r} is outside its validity{which}: {text}; use method="
-            + " or ".join(f"{m!r}" for m in ["auto"] + instead))
+            + " or ".join(f"{m!r}" for m in ["auto"] + instead) + rounding)
 
 
 def check_focus(radar, raw, motion):

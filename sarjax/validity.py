@@ -48,7 +48,8 @@ def _simulator(method, options):
 
 
 def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=None,
-             near_range=None, azimuth_center=0.0, **options) -> Validity:
+             near_range=None, azimuth_center=0.0, dtype="complex128",
+             **options) -> Validity:
     """Validity budgets of ``method`` for this acquisition, without simulating.
 
     Args:
@@ -59,6 +60,8 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=No
             (``sarjax.simulators.method_names()``), or a simulator instance.
         num_pulses, num_range, near_range: the acquisition (defaults: the radar's).
         azimuth_center: x' of the middle pulse [m].
+        dtype: the output's dtype; complex64 adds the Fourier-domain track methods'
+            ``complex64_rounding`` budget.
         **options: simulator options that change its budgets (e.g. ``pointing_order``,
             ``coupling_order``, ``envelope_correction``); options a method does not have
             are ignored.
@@ -70,13 +73,24 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=No
     """
     if isinstance(method, str) and method == _registry.AUTO:
         raise ValueError("method='auto' has no budgets of its own: see choose_method()")
+    if _complex_dtype(dtype) is None:
+        raise ValueError(f"dtype={dtype!r} must be complex64 or complex128")
     simulator = (method if isinstance(method, AbstractSimulator)
                  else _simulator(method, options))
     motion = Motion() if motion is None else motion
     acquisition = _acquisition(radar, num_pulses, num_range, near_range, azimuth_center)
-    report = simulator.budgets(radar, scene, motion, acquisition)
+    report = simulator.budgets(radar, scene, motion, acquisition, dtype)
     name = method if isinstance(method, str) else report.method
     return dataclasses.replace(report, method=name)
+
+
+def _complex_dtype(dtype):
+    """``dtype`` as complex64 or complex128, else None."""
+    try:
+        dtype = np.dtype(dtype)
+    except TypeError:
+        return None
+    return dtype if dtype in (np.complex64, np.complex128) else None
 
 
 def choose_method(radar, scene, motion=None, *, num_pulses=None, num_range=None,
@@ -162,6 +176,6 @@ def _choose(radar, scene, motion=None, *, num_pulses=None, num_range=None, near_
             continue
         if best is None:
             return "time_domain", report, costs, {}
-        report[best] = simulators[best].budgets(radar, scene, motion, acquisition)
+        report[best] = simulators[best].budgets(radar, scene, motion, acquisition, dtype)
         if report[best].valid:
             return best, report, costs, {cls.names[0]: cls.compile_time for cls in classes}

@@ -46,7 +46,8 @@ def test_pulse_extent_is_the_float64_test():
 def test_many_scatterers_match_the_numpy_oracle():
     """36 scatterers in one chunk take the matrix-product branch, by default the loop
     over chunks of 32: both against the float64 oracle within 1e-9 (the reference test's
-    bound: float64 rounding of ~2e6 rad phases); complex64 within 1e-5 (its tables' rounding, measured ≈ 3e-7)."""
+    bound: float64 rounding of ~2e6 rad phases); complex64 within 1e-5 (its tables'
+    rounding, measured ≈ 3e-7)."""
     radar = sj.presets.airborne_xband(**RADAR_OVERRIDES)
     kw = _radar_kwargs(radar)
     num_pulses, num_range, near = 6, 300, 4700.0

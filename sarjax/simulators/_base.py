@@ -17,6 +17,7 @@ from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 
 from . import _budgets
 
@@ -109,13 +110,16 @@ class AbstractSimulator(eqx.Module):
         """The budgets of the approximations this method makes (none for exact ones)."""
         return (), 0.0
 
-    def window_budgets(self, radar, scene, motion, acquisition):
+    def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         """Budgets of the grid the method synthesises on (default: none; the
-        Fourier-domain methods: its azimuth aliases, wrap and extent)."""
+        Fourier-domain methods: its azimuth aliases, wrap and extent, and the track
+        methods' complex64 rounding)."""
         return ()
 
-    def budgets(self, radar, scene, motion, acquisition) -> _budgets.Validity:
-        """Every budget of this run: the approximations', then window and sampling.
+    def budgets(self, radar, scene, motion, acquisition,
+                dtype=jnp.complex128) -> _budgets.Validity:
+        """Every budget of this run in ``dtype``: the approximations', then window and
+        sampling.
 
         Every method reports the range window (scatterers whose echo misses it are not
         recorded: only a window that records nothing is a violation); the Fourier-domain
@@ -124,7 +128,7 @@ class AbstractSimulator(eqx.Module):
         approximation budgets (:mod:`sarjax.simulators._budgets`).
         """
         found = list(_budgets.range_window_budget(radar, scene, motion, acquisition))
-        found += self.window_budgets(radar, scene, motion, acquisition)
+        found += self.window_budgets(radar, scene, motion, acquisition, dtype)
         if not self.exact:  # synthesised from the chirp's spectrum: its ends ring
             found += _budgets.chirp_edge_budget(radar, scene, motion, acquisition,
                                                 getattr(self, "range_aliases", 0))

@@ -65,12 +65,17 @@ class AzimuthSupport(NamedTuple):
             ``a = x' − x = −r tan φ``).
         sidelobes: the share of the recorded echo energy the window sees through the
             pattern's sidelobes only (``|u| > 1``).
+        synthesised: the echo energy the synthesis makes (each scatterer's echo over the
+            look angles of the bands and its whole chirp) over the energy the window
+            records, ≥ 1 up to the bands' losses: the synthesis works on the whole echo
+            and crops the window out of it, so its rounding scales with this ratio.
     """
 
     bands: int
     left_out: float
     look: tuple[float, float]
     sidelobes: float = 0.0
+    synthesised: float = 1.0
 
 
 def _pattern_u(radar, along, slant_range):
@@ -150,8 +155,28 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
         bands = 0
         while left_out(bands) > tolerance and bands < max_bands:
             bands += 1
+    phi_lo, phi_hi = band_look_angles(radar, bands)
+    in_bands = np.clip(energy_below(_pattern_u(radar, -r * math.tan(phi_lo), r))
+                       - energy_below(_pattern_u(radar, -r * math.tan(phi_hi), r)), 0.0, None)
+    in_window = weight * per_scatterer * _chirp_share(radar, acquisition, x, r, (w0, w1))
+    window_energy = float(np.sum(in_window))
+    synthesised = (float(np.sum(weight * in_bands)) / window_energy if window_energy > 0
+                   else 1.0)
     return AzimuthSupport(int(bands), left_out(bands), band_look_angles(radar, bands),
-                          max(sidelobes, 0.0))
+                          max(sidelobes, 0.0), max(synthesised, 1.0))
+
+
+def _chirp_share(radar, acquisition, x, r, window):
+    """The share of each scatterer's chirp ``R ± cτ/4`` the range window holds, R its
+    slant range at the recorded pulse nearest its beam centre ``x' = x − r tan φ_d``."""
+    w0, w1 = window
+    pulse = np.clip(x - r * math.tan(float(np.asarray(radar.squint))), w0, w1)
+    slant = np.sqrt(r**2 + (pulse - x) ** 2)
+    half = float(radar.pulse_half_length)
+    near = float(acquisition.near_range)
+    far = near + (acquisition.num_range - 1) * float(radar.range_spacing)
+    overlap = np.minimum(slant + half, far) - np.maximum(slant - half, near)
+    return np.clip(overlap / (2 * half), 0.0, 1.0)
 
 
 def _kept(slot, key, held, compute):

@@ -41,7 +41,7 @@ from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import LobeGeometry, azimuth_budgets
+from ._budgets import LobeGeometry, azimuth_budgets, rounding_budgets
 from ._tracks import ModerateDeviationTrack, SmallDeviationTrack, StraightTrack
 
 _TWO_PI = 2 * jnp.pi
@@ -165,9 +165,9 @@ class AbstractFourierSimulator(AbstractSimulator):
                            engine.alias_column_count(radar, grid.n_r, self.alias_tolerance),
                            support.bands, jnp.asarray(grid.included, dtype=float))
 
-    def window_budgets(self, radar, scene, motion, acquisition):
+    def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         support, grid = self.grid(radar, scene, motion, acquisition)
-        return azimuth_budgets(support, grid)
+        return azimuth_budgets(support, grid) + rounding_budgets(support, dtype)
 
     def simulate(self, plan, radar, scene, motion, acquisition, dtype):
         return synthesize(self, plan, radar, scene, motion, acquisition, dtype)

@@ -149,7 +149,8 @@ class AbstractStraightTrackSimulator(AbstractSimulator):
         return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
                                 support, **self.grid_rules)
 
-    def window_budgets(self, radar, scene, motion, acquisition):
+    def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
+        # computed in complex128 whatever the output's dtype: no rounding budget
         return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
 
     def approximation_budgets(self, radar, scene, motion, acquisition):
