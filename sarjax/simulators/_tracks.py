@@ -27,10 +27,12 @@ Budgets over the pulses within the squinted main lobe (``_budgets.LobeGeometry``
   max|ψ(x', r) − ψ(x_c, r)|`` (ψ moved onto the scene, seed eq. 13).
 * moderate deviation: ``epsilon_11`` = the coupling left by the order-n Taylor series
   over the PRF band about ξ_d, ``(α_max max|δ − δ̄|)^{n+1}/(n+1)!``, plus
-  ``(4π/λ) max|R − R_n − δr_xr r/R_n|``; ``epsilon_12`` = the squared first-order envelope
-  terms over 2 (``|ψ|/c`` and the migration ``c_d |a| |∂ψ/∂x'| / c²``, both corrected)
-  plus the uncorrected ones: ``|δr||1/c − 1/c_d|`` and the migration of the coupling's
-  Doppler shift, ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``.
+  ``(4π/λ) max|R − R_n − δr_xr r/R_n|``; ``epsilon_12`` = the squared corrected envelope
+  terms over 2 (``|ψ|/c`` and the migration of ψ's Doppler shift to second order,
+  ``c_d |a| |∂ψ/∂x'| / c² + r (c_d ∂ψ/∂x')² (3 − 2c²) / (2c⁵)``) plus the uncorrected
+  ones: ``|δr||1/c − 1/c_d|``, the migration of the coupling's Doppler shift,
+  ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``, and the third and fourth orders
+  of ψ's.
 * every track: the pointing expansion of its order (``_budgets.pointing_budget``).
 """
 
@@ -261,9 +263,19 @@ def _moderate_deviation_maxima(pairs, delta_r, constants):
         alpha = jnp.abs(jnp.sqrt(k0**2 - (k0 * along / nominal) ** 2) - k0 * c_d)
         los_slope = jnp.gradient(los, dx, axis=0)
         psi_slope = jnp.gradient(psi, dx, axis=0)
-        corrected = jnp.abs(psi) / cos_look + c_d * jnp.abs(along * psi_slope) / cos_look**2
+        # ψ's Doppler shift Δξ = k₀ c_d ∂ψ/∂x' moves its echo by R(ξ) − R(ξ − Δξ), R(ξ) =
+        # r k₀/√(k₀² − ξ²) the envelope's migration: corrected to second order in Δξ
+        # (R′Δξ = c_d |a ∂ψ/∂x'|/c², R″Δξ²/2 = r (c_d ∂ψ/∂x')² (3 − 2c²)/(2c⁵)); the
+        # third and fourth orders are left
+        doppler = c_d * jnp.abs(psi_slope)
+        sine = jnp.abs(along) / nominal
+        corrected = (jnp.abs(psi) / cos_look + c_d * jnp.abs(along * psi_slope) / cos_look**2
+                     + rs * doppler**2 * (3 - 2 * cos_look**2) / (2 * cos_look**5))
+        higher = (rs * doppler**3 * sine * (9 * cos_look**2 + 15 * sine**2) / (6 * cos_look**7)
+                  + 3 * rs * doppler**4 / (8 * cos_look**9))
         uncorrected = (jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)
-                       + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2))
+                       + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2)
+                       + higher)
         return jnp.stack([
             lobe_peak(lobe, exact - nominal - los * cos_look),
             lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
@@ -291,7 +303,9 @@ class ModerateDeviationTrack(AbstractTrack):
 
     def _lines(self, ctx, sim, lines, envelope):
         """Along-track part of B for one line set (n_lines, n_x); with ``envelope`` the
-        first-order envelope lines ``s(ξ) ψ + R′(ξ) k₀ cos φ_d ∂ψ/∂x'`` instead."""
+        first-order envelope lines ``s(ξ) ψ + R′(ξ) Δξ + R″(ξ) Δξ²/2`` instead: ψ, and
+        the range migration ``R(ξ) = r k₀/√(k₀² − ξ²)`` that ψ's Doppler shift
+        ``Δξ = k₀ cos φ_d ∂ψ/∂x'`` moves its echo by, to second order."""
         k0, kz, xi, ranges = ctx.k0, ctx.kz, ctx.xi, ctx.ranges
         work = lines.dtype  # phases in float64, reduced before a phasor of this precision
         real = jnp.finfo(work).dtype
@@ -317,8 +331,12 @@ class ModerateDeviationTrack(AbstractTrack):
             return jnp.fft.fft(along, axis=1)
         slope = (jnp.gradient(psi, axis=1) / ctx.dx).astype(real)
         spread = (k0 / kz).astype(real)[None, :] * jnp.fft.fft(along * psi.astype(real), axis=1)
-        migration = ((k0 * ctx.cos_d) * ranges[:, None] * (k0 * xi / kz**3)[None, :]).astype(real)
-        return spread + migration * jnp.fft.fft(along * slope, axis=1)
+        doppler = k0 * ctx.cos_d  # ψ's Doppler shift per unit slope, Δξ = k₀ cos φ_d ∂ψ/∂x'
+        migration = (doppler * ranges[:, None] * (k0 * xi / kz**3)[None, :]).astype(real)
+        curvature = (doppler**2 / 2 * ranges[:, None]
+                     * (k0 * (kz**2 + 3 * xi**2) / kz**5)[None, :]).astype(real)
+        return (spread + migration * jnp.fft.fft(along * slope, axis=1)
+                + curvature * jnp.fft.fft(along * slope**2, axis=1))
 
     def line_sets(self, ctx, sim, spectrum, column_weight, weights):
         # per pointing order (the pattern precedes the motion phase), and the set the
