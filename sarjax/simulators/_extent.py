@@ -411,6 +411,11 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     walk_speed = 0.0
     if moving is not None:  # their own stationary points at the bands' edges
         a_edges = _moving_offsets(radar, r, moving, _band_wavenumbers(radar, bands))
+        # a band edge beyond a target's Doppler horizon has no stationary point (its
+        # offset diverges): no farther than a still target's, over 1 − |v_a|/v
+        bound = (r * max(abs(math.tan(look[0])), abs(math.tan(look[1])))
+                 / np.maximum(1 - np.abs(moving[1]) / float(radar.velocity), 1e-3))
+        a_edges = np.clip(a_edges, -bound, bound)
         lo = np.where(moving[2], x + np.min(a_edges, axis=0) - fresnel, lo)
         hi = np.where(moving[2], x + np.max(a_edges, axis=0) + fresnel, hi)
         walk_speed = np.abs(moving[0]) / float(radar.velocity)  # r' = r + v_r a/v
