@@ -97,9 +97,7 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
              azimuth_center, dtype, devices, memory_limit, options):
     """Validate, resolve the method and plan the call (everything but running it)."""
     strict = _validate.check_arguments(radar, options)
-    dtype = jnp.dtype(dtype)
-    if dtype not in (jnp.complex64, jnp.complex128):
-        raise ValueError(f"dtype={dtype} must be complex64 or complex128")
+    dtype = _validate.check_dtype(dtype)
     motion = Motion() if motion is None else motion
     if not isinstance(motion, Motion):
         raise ValueError(f"motion={type(motion).__name__} is not a Motion")

@@ -131,6 +131,18 @@ def check_motion(motion, num_pulses):
     return batch
 
 
+def check_dtype(dtype):
+    """``dtype`` as a complex64 or complex128 ``numpy.dtype``; anything else: a
+    ValueError naming it."""
+    try:
+        resolved = np.dtype(dtype)
+    except TypeError:
+        raise ValueError(f"dtype={dtype!r} must be complex64 or complex128") from None
+    if resolved not in (np.complex64, np.complex128):
+        raise ValueError(f"dtype={resolved} must be complex64 or complex128")
+    return resolved
+
+
 def check_grid(num_pulses, num_range):
     for name, n in (("num_pulses", num_pulses), ("num_range", num_range)):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:

@@ -19,6 +19,7 @@ import dataclasses
 import numpy as np
 
 from ._data import Acquisition
+from ._validate import check_dtype
 from .motion import Motion
 from .simulators import AbstractSimulator, _registry
 from .simulators._budgets import PATTERN_THRESHOLD as PATTERN_THRESHOLD
@@ -73,8 +74,7 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=No
     """
     if isinstance(method, str) and method == _registry.AUTO:
         raise ValueError("method='auto' has no budgets of its own: see choose_method()")
-    if _complex_dtype(dtype) is None:
-        raise ValueError(f"dtype={dtype!r} must be complex64 or complex128")
+    dtype = check_dtype(dtype)
     simulator = (method if isinstance(method, AbstractSimulator)
                  else _simulator(method, options))
     motion = Motion() if motion is None else motion
@@ -82,15 +82,6 @@ def validity(radar, scene, motion=None, *, method, num_pulses=None, num_range=No
     report = simulator.budgets(radar, scene, motion, acquisition, dtype)
     name = method if isinstance(method, str) else report.method
     return dataclasses.replace(report, method=name)
-
-
-def _complex_dtype(dtype):
-    """``dtype`` as complex64 or complex128, else None."""
-    try:
-        dtype = np.dtype(dtype)
-    except TypeError:
-        return None
-    return dtype if dtype in (np.complex64, np.complex128) else None
 
 
 def choose_method(radar, scene, motion=None, *, num_pulses=None, num_range=None,

@@ -91,10 +91,7 @@ def _pattern_u(radar, along, slant_range):
 def band_look_angles(radar, bands):
     """(φ_lo, φ_hi) [rad]: the look angles ``ξ = k₀ sin φ`` of the principal Doppler band
     ``ξ_d ± π/Δx`` and ``bands`` alias bands on each side."""
-    dx = float(radar.azimuth_spacing)
-    k0 = float(radar.wavenumber)
-    xi_d = k0 * math.sin(float(np.asarray(radar.squint)))
-    edge = np.clip((xi_d + np.array([-1, 1]) * (2 * bands + 1) * math.pi / dx) / k0, -1, 1)
+    edge = np.clip(_band_wavenumbers(radar, bands) / float(radar.wavenumber), -1, 1)
     limit = math.pi / 2 - 1e-3
     lo, hi = np.clip(np.arcsin(edge), -limit, limit)
     return float(lo), float(hi)
@@ -158,6 +155,7 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     main_lobe = float(np.sum(weight * seen(energy_below(-1.0), energy_below(1.0))))
     sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
 
+    @functools.cache
     def band_edges(k):
         """F(u) at the two edges of bands ±k for each scatterer, lower first."""
         phi_lo, phi_hi = band_look_angles(radar, k)
@@ -168,7 +166,7 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
             # velocity, an edge may fall in the main lobe): not counted as covered
             u = np.sort(np.stack(_moving_edges(radar, _band_wavenumbers(radar, k), moving)),
                         axis=0)
-            ringing = (FRESNEL_ZONES * np.sqrt(float(radar.wavelength) * r / 2) / r
+            ringing = (fresnel_margin(radar, r) / r
                        * float(radar.antenna_length) / float(radar.wavelength)
                        / math.cos(float(np.asarray(radar.squint))) ** 2)
             lower, upper = np.minimum(*edges), np.maximum(*edges)
@@ -287,6 +285,12 @@ _LAST_SUPPORT = [None, None]  # (the inputs, AzimuthSupport) of the last support
 
 
 FRESNEL_ZONES = 6.0  # margin of an echo's azimuth support beyond its band's edges
+
+
+def fresnel_margin(radar, r):
+    """``FRESNEL_ZONES`` Fresnel zones ``√(λr/2)`` [m] at range r: where a band's cut
+    rings about its edge."""
+    return FRESNEL_ZONES * np.sqrt(float(radar.wavelength) * r / 2)
 AZIMUTH_TOLERANCE = 10 ** -3.5  # echo energy left out of the azimuth support (default)
 
 
@@ -404,7 +408,7 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     # azimuth support of each scatterer [m], with FRESNEL_ZONES Fresnel zones √(λr/2) on
     # each side: where the pattern is still high at the band's edge (a PRF below the
     # Doppler band) the spectrum's cut rings over a few zones
-    fresnel = FRESNEL_ZONES * np.sqrt(float(radar.wavelength) * r / 2)
+    fresnel = fresnel_margin(radar, r)
     lo = x - r * math.tan(look[1]) - fresnel
     hi = x - r * math.tan(look[0]) + fresnel
     moving = None if is_traced(scene.azimuth) else _velocities(scene, x.shape)
