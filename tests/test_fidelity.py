@@ -32,6 +32,7 @@ NUM_PULSES, NUM_RANGE = 512, 256  # ±64 m window, 768 m of range
 CHIRP = 5e-6  # 250 range samples (shorter hard-edged chirps differ from any
 # band-limited model by more: 1 µs, −21 dB raw NMSE even for a centred target)
 R0 = 5140.0
+HEIGHT = 4000.0  # the airborne preset's platform height [m]
 NEAR = R0 - NUM_RANGE // 2 * 2.99792458
 METHODS = ("fourier_2d", "small_deviation", "moderate_deviation", "chirp_scaling",
            "high_speed")
@@ -46,12 +47,20 @@ def _radar(squint_deg):
         squint=np.deg2rad(squint_deg))
 
 
+def _centre_range(squint_deg):
+    """The closest-approach range r of a target whose beam-centre echo (slant range
+    r / cos φ_d) falls in the middle of the range window, R0."""
+    return R0 * np.cos(np.deg2rad(squint_deg))
+
+
 @st.composite
 def scenes(draw):
     """(squint [deg], target azimuth x [m], range r [m], motion rms [m])."""
     squint = draw(st.sampled_from([0.0, 0.0, 4.0, 10.0, 20.0, 30.0]))
-    r = draw(st.one_of(st.floats(R0 - 150.0, R0 + 150.0),  # inside the range window
-                       st.floats(R0 - 700.0, R0 + 700.0)))  # at its edges and beyond
+    centre = _centre_range(squint)
+    r = draw(st.one_of(st.floats(centre - 150.0, centre + 150.0),  # inside the range window
+                       # at its edges and beyond (a slant range beyond the height H)
+                       st.floats(max(centre - 700.0, HEIGHT + 100.0), centre + 700.0)))
     crossing = r * np.tan(np.deg2rad(squint))  # x of a target seen at beam centre at x' = 0
     placement = draw(st.sampled_from(["inside", "edge", "beyond", "far", "centre"]))
     offset = {"inside": st.floats(-60.0, 60.0), "edge": st.floats(40.0, 120.0),
@@ -94,8 +103,9 @@ def _check(method, case):
     if sj.ValidityWarning in kinds or sj.SwathWarning in kinds:
         return "warned"
     # a target centred in the window sets the scale of "nothing recorded"
+    centre = _centre_range(squint)
     scale = np.sum(np.abs(np.asarray(sj.simulate(
-        radar, sj.PointTargets(azimuth=[r * np.tan(np.deg2rad(squint))], range=[R0]),
+        radar, sj.PointTargets(azimuth=[centre * np.tan(np.deg2rad(squint))], range=[centre]),
         method="time_domain", **reference).data)) ** 2)
     if np.sum(np.abs(exact) ** 2) <= 1e-6 * scale:  # the window records ≤ −60 dB
         assert np.sum(np.abs(fast) ** 2) <= 1e-5 * scale, case
@@ -167,6 +177,72 @@ def test_a_moving_target_is_synthesised_where_it_is_seen(velocity_range, velocit
     scene = sj.PointTargets(azimuth=[crossing], range=[R0], velocity_range=[velocity_range],
                             velocity_azimuth=[velocity_azimuth])
     assert sj.validity(radar, scene, method="high_speed").valid
+
+
+def test_a_band_cut_in_the_main_lobe_rings_into_the_window():
+    """15 m/s in range and −30 m/s along track at 10° squint move this target's Doppler
+    so that the lower edge of the bands ±1 falls in its main lobe (u ≈ −0.3), 79 m past a
+    window that records its sidelobes: the spectrum's cut rings into every pulse at the
+    edge's Doppler (its end-point term, ∝ 1/distance). With one alias band each side
+    that left −13.2 dB against the exact model while ``azimuth_aliases`` counted no
+    energy missed; its ringing term predicts it (−13.9 dB), so the run warns, and the
+    automatic choice takes two bands: valid, within the fidelity."""
+    case = (10.0, 800.1, 4919.0, 0.0, 15.0, -30.0)
+    radar = _radar(case[0])
+    scene = sj.PointTargets(azimuth=[case[1]], range=[case[2]], velocity_range=[case[4]],
+                            velocity_azimuth=[case[5]])
+    one_band = sj.simulators.simulator_class("high_speed")(azimuth_aliases=1)
+    predicted = 10 * np.log10(sj.validity(radar, scene, method=one_band)["azimuth_aliases"].value)
+    with pytest.warns(sj.ValidityWarning, match="azimuth_aliases"):
+        fast = sj.simulate(radar, scene, method=one_band).data
+    exact = sj.simulate(radar, scene, method="time_domain", stop_and_go=False).data
+    # the end-point term's 1/distance law over the window, against the measured error
+    assert abs(nmse_db(fast, exact) - predicted) <= 1.5, (nmse_db(fast, exact), predicted)
+    assert _check("high_speed", case) == "valid"
+
+
+@pytest.mark.slow
+def test_no_echo_beyond_a_moving_targets_doppler_horizon():
+    """At 30° squint a target moving 30 m/s along track (v − v_a = 70 m/s) has its
+    Doppler horizon, |ξ| v/k₀ = v_eq, at 4.46 kHz, inside the bands the synthesis needs
+    (up to 4.59 kHz): beyond it the echo has no stationary point. The spectrum there was
+    the clamped root's, (10⁻¹²)^(−3/4) too large: −11.5 dB against the exact model with
+    no warning; now zero, and valid."""
+    assert _check("high_speed", (30.0, 3834.0, 4523.9, 0.0, 1.0, 30.0)) == "valid"
+
+
+def test_a_moving_target_is_recorded_where_it_has_moved():
+    """At 30° squint this target is seen about 27 s before it crosses zero Doppler: at
+    40 m/s in range it is then 1070 m nearer than its range r = 5700 m says, and the
+    window records all of its echo. The range-window budget took it from r, with the
+    walk of the window's duration (51 m), beyond the window's far end: ``SwathWarning``
+    (the data would be zero). It now follows the target, as the exact model does."""
+    radar = _radar(30.0)
+    r = 5700.0
+    seen = r / (1 + 0.4 * np.tan(np.deg2rad(30.0)))  # r + v_r a/v at a = −r' tan φ_d
+    scene = sj.PointTargets(azimuth=[seen * np.tan(np.deg2rad(30.0))], range=[r],
+                            velocity_range=[40.0])
+    exact = np.asarray(sj.simulate(radar, scene, method="time_domain", stop_and_go=False).data)
+    centred = np.asarray(sj.simulate(radar, sj.PointTargets(
+        azimuth=[_centre_range(30.0) * np.tan(np.deg2rad(30.0))], range=[_centre_range(30.0)]),
+        method="time_domain", stop_and_go=False).data)
+    assert np.sum(np.abs(exact) ** 2) >= 0.5 * np.sum(np.abs(centred) ** 2)  # recorded
+    assert sj.validity(radar, scene, method="high_speed")["range_window"].value == 0.0
+
+
+def test_a_moving_chirp_end_recorded_alone_warns():
+    """The window records only the leading samples of this target's chirp, and less of
+    them when it moves 5 m/s toward the platform along track: −24.7 dB against the exact
+    model, where ``chirp_edges`` took the still target's echo (valid, −28.4 dB there).
+    Counted where the target is at each pulse, the budget predicts −25.7 dB and warns."""
+    case = (30.0, 2902.3, 5027.0, 0.0, 0.0, -5.0)
+    radar = _radar(case[0])
+    scene = sj.PointTargets(azimuth=[case[1]], range=[case[2]], velocity_azimuth=[case[5]])
+    predicted = 10 * np.log10(sj.validity(radar, scene, method="high_speed")["chirp_edges"].value)
+    with pytest.warns(sj.ValidityWarning, match="chirp_edges"):
+        fast = sj.simulate(radar, scene, method="high_speed").data
+    exact = sj.simulate(radar, scene, method="time_domain", stop_and_go=False).data
+    assert abs(nmse_db(fast, exact) - predicted) <= 1.5, (nmse_db(fast, exact), predicted)
 
 
 @pytest.mark.parametrize("method", ["fourier_2d", "small_deviation"])

@@ -296,3 +296,20 @@ def test_range_aliases_only_on_the_columns_the_chirp_spectrum_reaches(chirp, col
         assert 0 < plan.alias_columns < n_r
     every = sj.simulators.HighSpeed(alias_tolerance=1e-300).prepare(radar, scene, acq)
     assert every.alias_columns >= n_r // 2
+
+
+def test_no_spectrum_beyond_the_doppler_horizon():
+    """A moving target's echo has no stationary point where ``|ξ| v/k ≥ v_eq`` (its
+    Doppler horizon; 30 m/s along track at 100 m/s: v_eq ≈ 70 m/s): the synthesised
+    spectrum is zero there and finite everywhere (the clamped root gave amplitudes
+    10⁹ times too large there)."""
+    from sarjax.simulators._moving_target import spectrum_terms
+
+    radar = sj.presets.airborne_xband()
+    k = float(radar.wavenumber)
+    v_eq = np.hypot(1.0, 100.0 - 30.0)
+    xi = np.array([0.5, 0.99, 1.01, 1.5]) * v_eq * k / 100.0
+    _, amplitude, _ = spectrum_terms(radar, xi, k, 1.0, 30.0)
+    amplitude = np.asarray(amplitude)
+    assert np.all(np.isfinite(amplitude))
+    assert np.all(np.abs(amplitude[:2]) > 0) and np.all(amplitude[2:] == 0)
