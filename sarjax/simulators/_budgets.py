@@ -252,21 +252,19 @@ def chirp_edge_error(chirp_rate, half_length, range_spacing, aliases, steps=64):
         (leading, trailing): (steps,) NumPy arrays, the error energy before and after
         the echo's centre at ``δ = k / steps`` samples.
     """
-    from scipy.special import fresnel
+    from ._fourier_engine import chirp_spectrum_values
 
     b, half, dr = chirp_rate, half_length, range_spacing
     n = 1 << int(math.ceil(math.log2(2 * half / dr + 256)))
     eta = 2 * np.pi * np.fft.fftfreq(n, dr)
     delta = np.arange(steps) / steps
     centre = (n // 2 + delta[:, None]) * dr
+    # C(η + 2πm/Δr) of every alias m at once (no SciPy import in a command's start-up)
+    k = eta[None, :] + 2 * np.pi * np.arange(-aliases, aliases + 1)[:, None] / dr
+    alias_spectra = chirp_spectrum_values(b, half, k)
     spectrum = np.zeros((steps, n), complex)
-    scale = math.sqrt(2 * b / math.pi)
-    for m in range(-aliases, aliases + 1):
-        k = eta + 2 * np.pi * m / dr
-        s1, c1 = fresnel((-half + k / (2 * b)) * scale)
-        s2, c2 = fresnel((half + k / (2 * b)) * scale)
-        c = np.exp(1j * k**2 / (4 * b)) * ((c2 - c1) - 1j * (s2 - s1))
-        spectrum += math.sqrt(math.pi / (2 * b)) * c * np.exp(-1j * k * centre)
+    for k_m, c_m in zip(k, alias_spectra, strict=True):
+        spectrum += c_m * np.exp(-1j * k_m * centre)
     model = np.fft.ifft(spectrum / dr, axis=-1)
     offset = np.arange(n) * dr - centre
     sampled = np.where(np.abs(offset) < half, np.exp(-1j * b * offset**2), 0.0)

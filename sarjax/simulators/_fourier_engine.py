@@ -32,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _exported
 from .._numerics.interpolation import (
     next_fast_len,
     periodic_rows,
@@ -528,7 +529,19 @@ def alias_column_count(radar, n_r, tolerance):
     return _alias_column_count(*key)
 
 
-_chirp_spectrum_program = jax.jit(_chirp_spectrum)
+@_exported.cached
+@eqx.filter_jit
+def _chirp_spectrum_program(chirp_rate, half_length, eta):
+    return _chirp_spectrum(chirp_rate, half_length, eta)
+
+
+def chirp_spectrum_values(chirp_rate, half_length, eta):
+    """:func:`chirp_spectrum` as a NumPy array, for eager checks on concrete values: one
+    compiled program per shape, kept between processes with the simulation programs
+    (``_exported``), so a later process neither traces it nor imports SciPy."""
+    with jax.ensure_compile_time_eval():  # one compiled program, not one per operation
+        return np.asarray(_chirp_spectrum_program(float(chirp_rate), float(half_length),
+                                                  np.asarray(eta, float)))
 
 
 def add_alias_bands(principal, band, bands):
@@ -544,9 +557,7 @@ def add_alias_bands(principal, band, bands):
 def _alias_column_count(chirp_rate, half_length, range_spacing, n_r, tolerance):
     eta = np.sort(2 * np.pi * np.fft.fftfreq(n_r, range_spacing))
     step = 2 * np.pi / range_spacing
-    with jax.ensure_compile_time_eval():  # one compiled program, not one per operation
-        both = np.asarray(_chirp_spectrum_program(chirp_rate, half_length,
-                                                  np.stack([eta, eta + step])))
+    both = chirp_spectrum_values(chirp_rate, half_length, np.stack([eta, eta + step]))
     main, alias = np.abs(both) ** 2
     left_out = alias.sum() - np.cumsum(alias)  # energy beyond the first k + 1 columns
     if alias.sum() <= tolerance * main.sum():
