@@ -123,6 +123,15 @@ def to_xarray(product, *, radar=None, scene=None, motion=None, attrs=None):
         ``("azimuth", "range")`` and the parameters (see :mod:`sarjax.io`).
     """
     xr = _xr()
+    variables, coords, all_attrs = dataset_parts(product, radar=radar, scene=scene,
+                                                 motion=motion, attrs=attrs)
+    return xr.Dataset(variables, coords=coords, attrs=all_attrs)
+
+
+def dataset_parts(product, *, radar=None, scene=None, motion=None, attrs=None):
+    """The parts of :func:`to_xarray`'s dataset as plain NumPy: ``(variables, coords,
+    attrs)``, each variable and coordinate ``name: (dims, array, attrs)`` (what
+    ``xarray.Dataset(variables, coords=coords, attrs=attrs)`` takes)."""
     kind = type(product).__name__
     if kind not in _PRODUCTS:
         raise ValueError(f"product of type {kind} is neither RawData nor Image")
@@ -156,7 +165,7 @@ def to_xarray(product, *, radar=None, scene=None, motion=None, attrs=None):
         all_attrs.update({f"radar_{k}": v for k, v in radar_attributes(radar).items()})
     for key, value in (attrs or {}).items():
         all_attrs[key] = _attr(value)
-    return xr.Dataset(variables, coords=coords, attrs=all_attrs)
+    return variables, coords, all_attrs
 
 
 def _attr(value):

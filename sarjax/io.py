@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _validate
-from ._data import Image, RawData, _xr, from_xarray, to_xarray
+from ._data import Image, RawData, _xr, dataset_parts, from_xarray, to_xarray
 from ._files import atomic_write
 from .motion import Motion
 from .radar import Radar, radar_attributes, radar_from_attributes
@@ -129,18 +129,52 @@ def save(path, product, *, radar=None, scene=None, motion=None, attrs=None,
     Returns:
         The path.
     """
-    ds = to_xarray(product, radar=radar, scene=scene, motion=motion, attrs=attrs)
-    for name in list(ds.data_vars):
-        if np.iscomplexobj(ds[name].values):
-            var = ds[name]
-            ds[f"{name}_real"] = var.real.assign_attrs(var.attrs, complex_part="real")
-            ds[f"{name}_imag"] = var.imag.assign_attrs(var.attrs, complex_part="imag")
-            ds = ds.drop_vars(name)
+    variables, coords, attributes = dataset_parts(product, radar=radar, scene=scene,
+                                                  motion=motion, attrs=attrs)
+    # NetCDF-4 has no complex type: two real variables each, after the real ones
+    stored = {name: v for name, v in variables.items() if not np.iscomplexobj(v[1])}
+    for name, (dims, values, var_attrs) in variables.items():
+        if np.iscomplexobj(values):
+            stored[f"{name}_real"] = (dims, np.real(values), dict(var_attrs, complex_part="real"))
+            stored[f"{name}_imag"] = (dims, np.imag(values), dict(var_attrs, complex_part="imag"))
 
-    def write(tmp):
-        ds.to_netcdf(tmp, engine=_engine(), format="NETCDF4")
+    if _engine() == "h5netcdf":
+        # written directly: the file xarray writes with this engine, without importing
+        # xarray and pandas (0.25 s of a command's run; tests/test_io.py compares them)
+        def write(tmp):
+            _write_h5netcdf(tmp, stored, coords, attributes)
+    else:
+        def write(tmp):
+            _xr().Dataset(stored, coords=coords, attrs=attributes).to_netcdf(
+                tmp, engine="netcdf4", format="NETCDF4")
 
     return atomic_write(path, write, overwrite=overwrite)
+
+
+def _write_h5netcdf(path, variables, coords, attributes):
+    """A NetCDF-4 file of ``coords`` and ``variables`` (``name: (dims, array, attrs)``)
+    as xarray's ``to_netcdf(engine="h5netcdf")`` writes it: the dimensions, each
+    coordinate a dimension's variable, floating variables with ``_FillValue`` NaN."""
+    import h5netcdf
+
+    items = {**variables, **coords}  # xarray's order: its dimensions' ids follow it
+    with h5netcdf.File(path, "w") as f:
+        sizes = {}
+        for dims, values, _ in items.values():
+            dims = (dims,) if isinstance(dims, str) else tuple(dims)
+            sizes.update(zip(dims, np.shape(values), strict=True))
+        f.dimensions = sizes
+        for name, (dims, values, var_attrs) in items.items():
+            dims = (dims,) if isinstance(dims, str) else tuple(dims)
+            values = np.asarray(values)
+            fill = {"fillvalue": np.nan} if np.issubdtype(values.dtype, np.floating) else {}
+            variable = f.create_variable(name, dims, values.dtype, data=values, **fill)
+            if fill:
+                variable.attrs["_FillValue"] = values.dtype.type(np.nan)
+            for key, value in var_attrs.items():
+                variable.attrs[key] = value
+        for key, value in attributes.items():
+            f.attrs[key] = value
 
 
 def _engine():

@@ -671,12 +671,14 @@ def test_writes_are_atomic(raw, tmp_path, monkeypatch):
     path = io.save(tmp_path / "raw.nc", raw)
     before = path.read_bytes()
 
-    def crash(self, target, *args, **kwargs):
+    def crash(target, *args, **kwargs):
         with open(target, "wb") as f:
             f.write(b"\x89HDF\r\n\x1a\n half a file")
         raise OSError("disk full")
 
-    monkeypatch.setattr(xr.Dataset, "to_netcdf", crash)
+    # both writers: h5netcdf's direct one and xarray's (without h5netcdf)
+    monkeypatch.setattr(io, "_write_h5netcdf", crash)
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", lambda self, *a, **k: crash(*a, **k))
     with pytest.raises(OSError, match="disk full"):
         io.save(tmp_path / "new.nc", raw)
     with pytest.raises(OSError, match="disk full"):
