@@ -1,6 +1,8 @@
 """Native files: raw data, images and every parameter of a run in one NetCDF-4/HDF5 file.
 
-Layout (through xarray; dims ``("azimuth", "range")``, coordinates in metres):
+Layout (xarray's, read through xarray and written through h5netcdf directly, as
+xarray's h5netcdf engine writes it; dims ``("azimuth", "range")``, coordinates in
+metres):
 
 * ``raw`` or ``image``: the complex samples. NetCDF has no complex type, so on disk they
   are two float variables ``raw_real`` / ``raw_imag`` (recombined on loading).
