@@ -159,16 +159,15 @@ def _write_h5netcdf(path, variables, coords, attributes):
     coordinate a dimension's variable, floating variables with ``_FillValue`` NaN."""
     import h5netcdf
 
-    items = {**variables, **coords}  # xarray's order: its dimensions' ids follow it
+    # xarray's order (its dimensions' ids follow it), each dims a tuple
+    items = {name: ((dims,) if isinstance(dims, str) else tuple(dims), np.asarray(values), a)
+             for name, (dims, values, a) in {**variables, **coords}.items()}
     with h5netcdf.File(path, "w") as f:
         sizes = {}
         for dims, values, _ in items.values():
-            dims = (dims,) if isinstance(dims, str) else tuple(dims)
-            sizes.update(zip(dims, np.shape(values), strict=True))
+            sizes.update(zip(dims, values.shape, strict=True))
         f.dimensions = sizes
         for name, (dims, values, var_attrs) in items.items():
-            dims = (dims,) if isinstance(dims, str) else tuple(dims)
-            values = np.asarray(values)
             fill = {"fillvalue": np.nan} if np.issubdtype(values.dtype, np.floating) else {}
             variable = f.create_variable(name, dims, values.dtype, data=values, **fill)
             if fill:

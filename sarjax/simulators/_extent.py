@@ -220,8 +220,8 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
                    else 1.0)
     hold = None
     if not is_traced((scene.azimuth, scene.reflectivity)) and recorded > 0:
-        # each cut's images at least this far from the window: half the tolerance over
-        # the scene, shared by the scatterers by weight
+        # each cut's images at least this far from the window: a quarter of the
+        # tolerance over the scene, shared by the scatterers by weight
         x_e, u_e, zone2 = cuts(int(bands))
         budget = 0.25 * tolerance * recorded / max(float(np.sum(weight)), 1e-300)
         reach = _image_distance(budget, width, u_e, zone2, density, slope)
@@ -248,9 +248,8 @@ def _band_cuts(radar, x, r, moving, bands):
     u = _pattern_u(radar, offset, r)
     zone2 = 2 * np.pi * r / (k0 * np.cos(phi) ** 3)
     if moving is not None:
-        v_r, v_a, which = moving
-        v = float(radar.velocity)
-        horizon = np.abs(xi).reshape(phi.shape) * v / k0 >= np.hypot(v_r, v - v_a)
+        which = moving[2]
+        horizon = beyond_horizon(radar, moving, xi, np.ndim(r))
         with np.errstate(divide="ignore", invalid="ignore"):
             step = 1e-4 * k0
             derivative = (_moving_offsets(radar, r, moving, xi + step)
@@ -261,6 +260,17 @@ def _band_cuts(radar, x, r, moving, bands):
         offset, u, zone2 = (np.where(which, o, np.broadcast_to(s, o.shape))
                             for o, s in zip(own, (offset, u, zone2), strict=True))
     return x + offset, u, zone2
+
+
+def beyond_horizon(radar, moving, xi, ndim):
+    """(2, …) whether each band edge ``xi`` (2,) lies beyond a moving scatterer's Doppler
+    horizon, ``|ξ| v/k₀ ≥ v_eq`` (``v_eq² = v_r² + (v − v_a)²``, ``_high_speed``'s module
+    docstring): there its echo has no stationary point. ``ndim``: the scatterers' ndim."""
+    v_r, v_a, _ = moving
+    v = float(radar.velocity)
+    edge_speed = np.abs(np.asarray(xi)).reshape((2,) + (1,) * ndim) * v / float(
+        radar.wavenumber)
+    return edge_speed >= np.hypot(v_r, v - v_a)
 
 
 def _ringing(gap, width, u, zone2, density, slope):
@@ -512,17 +522,14 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     if moving is not None:  # their own stationary points at the bands' edges
         edges = _band_wavenumbers(radar, bands)
         a_edges = _moving_offsets(radar, r, moving, edges)
-        # a band edge beyond a target's Doppler horizon, |ξ| v/k₀ ≥ v_eq (module
-        # docstring of _high_speed: v_eq² = v_r² + (v − v_a)²), has no stationary point
-        # (its offset diverges): there the echo is held no farther than a still target's,
-        # over 1 − |v_a|/v; an edge before the horizon is held where it is, up to
-        # OFFSET_LIMIT times that (beyond, the grid does not hold the echo: ``wrapped``)
-        v = float(radar.velocity)
-        v_eq = np.hypot(moving[0], v - moving[1])
-        horizon = np.abs(edges).reshape((2,) + (1,) * x.ndim) * v / k0 >= v_eq
+        # a band edge beyond a target's Doppler horizon (beyond_horizon) has no
+        # stationary point (its offset diverges): there the echo is held no farther
+        # than a still target's, over 1 − |v_a|/v; an edge before the horizon is held
+        # where it is, up to OFFSET_LIMIT times that (beyond, the grid does not hold
+        # the echo: ``wrapped``)
         bound = (r * max(abs(math.tan(look[0])), abs(math.tan(look[1])))
-                 / np.maximum(1 - np.abs(moving[1]) / v, 1e-3))
-        beyond = horizon | ~np.isfinite(a_edges)
+                 / np.maximum(1 - np.abs(moving[1]) / float(radar.velocity), 1e-3))
+        beyond = beyond_horizon(radar, moving, edges, x.ndim) | ~np.isfinite(a_edges)
         too_far = np.any(~beyond & (np.abs(a_edges) > OFFSET_LIMIT * bound), axis=0)
         a_edges = np.where(beyond, np.clip(np.nan_to_num(a_edges), -bound, bound),
                            np.clip(a_edges, -OFFSET_LIMIT * bound, OFFSET_LIMIT * bound))
