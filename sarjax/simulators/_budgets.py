@@ -37,6 +37,7 @@ from ..constants import SPEED_OF_LIGHT
 from ..scene import PointTargets, ReflectivityGrid
 
 PHASE_THRESHOLD = 0.1  # [rad]
+HEIGHT_THRESHOLD = 0.05  # [rad] rms, energy-weighted: an NMSE of −26 dB
 PATTERN_THRESHOLD = 0.02  # pattern-expansion error (0.046 at δ_m = 0.23 λ/L was inaccurate)
 
 
@@ -532,6 +533,7 @@ class LobeGeometry:
         self.x_p = azimuth_center + (np.arange(n) - (n - 1) / 2) * dx
         self._dy, self._dz, self.pointing = (np.asarray(v, float) for v in motion.resolve(n))
         self.still = not (np.any(self._dy) or np.any(self._dz))  # no deviation at all
+        self._grid = scene if isinstance(scene, ReflectivityGrid) else None
         self._radar = radar
         self._lam = lam = float(radar.wavelength)
         self.k0 = 4 * np.pi / lam
@@ -547,6 +549,49 @@ class LobeGeometry:
         radar = self._radar
         return np.asarray(geometry.line_of_sight_deviation(
             self._dy, self._dz, float(radar.reference_range), 0.0, float(radar.height)))[:, None]
+
+    def height_under_beam_rms(self, max_pulses=256, max_cells=32) -> float:
+        """rms phase [rad] of Algorithm B's line height on a grid: B forms each range
+        line's deviation ``δr_xr(x', r_j, h)`` with one height per pulse, the grid's at
+        the beam centre (``_fourier_engine.line_height_under_beam``), where the exact
+        model uses each cell's own. The phase ``k₀ cos φ_d (δr_xr(h_cell) − δr_xr(h_beam))``
+        over (pulse, cell) pairs, weighted by the echo energy ``|γ|² W²(u)²``: its mean
+        square is the NMSE it causes (measured −16.7 dB for a predicted 0.151 rad rms,
+        i.e. −16.4 dB; cells 0–20 m high at random, 0.3 m deviations). 0 for points,
+        a flat grid or a straight track. A lattice of ``max_cells`` lines and cells per
+        line and at most ``max_pulses`` pulses."""
+        grid = self._grid
+        if grid is None or self.still:
+            return 0.0
+        heights = np.broadcast_to(np.asarray(grid.height, float),
+                                  np.shape(grid.reflectivity))
+        if np.ptp(heights) == 0.0:
+            return 0.0
+        az, rg = np.asarray(grid.azimuth, float), np.asarray(grid.range, float)
+        cells = np.unique(np.linspace(0, az.size - 1, min(az.size, max_cells)).astype(int))
+        lines = np.unique(np.linspace(0, rg.size - 1, min(rg.size, max_cells)).astype(int))
+        pulses = np.unique(np.linspace(0, self.x_p.size - 1,
+                                       min(self.x_p.size, max_pulses)).astype(int))
+        x_p, dy, dz = self.x_p[pulses], self._dy[pulses], self._dz[pulses]
+        radar, squint = self._radar, self.squint
+        tan_d, platform = math.tan(squint), float(radar.height)
+        r = rg[lines][:, None, None]  # (line, pulse, cell)
+        step = (az[-1] - az[0]) / (az.size - 1) if az.size > 1 else 1.0
+        row = np.clip(np.round((x_p[None, :] + rg[lines][:, None] * tan_d - az[0]) / step),
+                      0, az.size - 1).astype(int)  # (line, pulse)
+        beam = np.take_along_axis(heights[:, lines].T, row, axis=1)[:, :, None]
+        own = heights[np.ix_(cells, lines)].T[:, None, :]  # (line, 1, cell)
+        los = lambda h: np.asarray(geometry.line_of_sight_deviation(
+            dy[None, :, None], dz[None, :, None], r, h, platform))
+        phase = self.k0 * math.cos(squint) * (los(own) - los(beam))
+        along = x_p[None, :, None] - az[cells][None, None, :]
+        ratio = float(radar.antenna_length) / self._lam
+        u = ratio * (along / r + tan_d) / (1 - along * tan_d / r)
+        pattern = np.asarray(antenna.evaluate(radar.pattern, jnp.asarray(u)))
+        gamma = np.abs(np.asarray(grid.reflectivity)[np.ix_(cells, lines)].T[:, None, :])
+        weight = (gamma * pattern) ** 2
+        total = float(np.sum(weight))
+        return math.sqrt(float(np.sum(weight * phase**2)) / total) if total > 0 else 0.0
 
     def line_of_sight_peak(self) -> float:
         """max |δr_xr| over the main lobe [m] (0 if no pair is in it)."""

@@ -286,17 +286,20 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
 
     ctx.work = jnp.dtype(dtype)
     total = engine.add_alias_bands(  # (η, x')
-        _band(sim, plan, band_ctx(0), motion, acquisition, True, n_r, block),
-        lambda k: _band(sim, plan, band_ctx(k), motion, acquisition, False, n_r, block),
+        _band(sim, plan, band_ctx(0), motion, acquisition, n_r, block),
+        lambda k: _band(sim, plan, band_ctx(k), motion, acquisition, n_r, block),
         plan.bands)
     raw = jnp.fft.ifft(total.T, axis=1)[:, :n_range]
     return raw.astype(dtype)
 
 
-def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
-    """(n_r, num_pulses) range spectrum of one Doppler band on the pulses. Alias bands
-    (``principal=False``, ≲ −25 dB of the echo) take the main range band and the pattern's
-    zeroth pointing term only.
+def _band(sim, plan, ctx, motion, acquisition, n_r, block):
+    """(n_r, num_pulses) range spectrum of one Doppler band on the pulses. Every band,
+    principal or alias, takes the range aliases and the pointing terms of the method: an
+    alias band can hold most of a scatterer's echo (PRF below the Doppler band 2v/L, as
+    on the spaceborne sets: a target seen 0.3 beamwidths off the beam centre has its echo
+    at 1.5 PRF), and without them such an echo was 21 dB (pointing jitter of 0.05 λ/L)
+    or 28 dB (none) from the exact model instead of 35 dB.
 
     Precision (``ctx.work``): the scene's and the track's factors are formed in float64 /
     complex128; the tables, the range synthesis, the transforms and the sums run in the
@@ -306,12 +309,12 @@ def _band(sim, plan, ctx, motion, acquisition, principal, n_r, block):
     xi, k0, n_x, n_pulses = ctx.xi, ctx.k0, ctx.n_x, ctx.n_pulses
     _, _, pointing = motion.resolve(n_pulses)
     delta_kept = geometry.reference_deviation(ctx.horizontal, ctx.vertical, radar)  # δr(x')
-    order = track.pointing_order(sim) if motion.pointing is not None and principal else 0
+    order = track.pointing_order(sim) if motion.pointing is not None else 0
     orders = range(order + 1)
     weights = [engine.pattern_weights(radar, xi, n) for n in orders]
     alias_sets = engine.range_alias_sets(engine.range_wavenumbers(radar, n_r),
                                          radar.range_spacing,
-                                         sim.range_aliases if principal else 0,
+                                         sim.range_aliases,
                                          plan.alias_columns)
     if len(alias_sets) > 2:  # the aliases m ≠ 0 share one program: their columns together
         everything = jnp.arange(n_r)

@@ -645,12 +645,11 @@ def coupled_inverse(lines, los, alpha, order):
 
 def line_height_under_beam(prepared, x_full, ranges, tan_squint):
     """(n_lines, n_x) grid height at the scatterer the beam centre of pulse x' crosses on
-    each line, ``x = x' + r_j tan φ_d`` (nearest grid row; 0 outside the grid)."""
+    each line, ``x = x' + r_j tan φ_d`` (nearest grid row; beyond the grid, its edge row:
+    the cells the beam sees then are those nearest the edge)."""
     az = prepared.azimuth
     step = jnp.where(az.shape[0] > 1, az[-1] - az[0], 1.0) / jnp.maximum(az.shape[0] - 1, 1)
     x_beam = x_full[None, :] + ranges[:, None] * tan_squint
     idx = jnp.round((x_beam - az[0]) / step).astype(jnp.int32)
-    inside = (idx >= 0) & (idx < az.shape[0])
     heights = prepared.height.T  # (n_lines, n_az)
-    rows = jnp.take_along_axis(heights, jnp.clip(idx, 0, az.shape[0] - 1), axis=1)
-    return jnp.where(inside, rows, 0.0)
+    return jnp.take_along_axis(heights, jnp.clip(idx, 0, az.shape[0] - 1), axis=1)

@@ -32,7 +32,9 @@ Budgets over the pulses within the squinted main lobe (``_budgets.LobeGeometry``
   ``c_d |a| |∂ψ/∂x'| / c² + r (c_d ∂ψ/∂x')² (3 − 2c²) / (2c⁵)``) plus the uncorrected
   ones: ``|δr||1/c − 1/c_d|``, the migration of the coupling's Doppler shift,
   ``|a| |√(k₀² − ξ²) − k₀ c_d| |∂δr_xr/∂x'| / (k₀ c²)``, and the third and fourth orders
-  of ψ's.
+  of ψ's; on a grid with heights, ``epsilon_height``: the energy-weighted rms phase of
+  forming each range line's deviation with one height per pulse, the grid's under the
+  beam centre, for each cell's own (``LobeGeometry.height_under_beam_rms``).
 * every track: the pointing expansion of its order (``_budgets.pointing_budget``).
 """
 
@@ -52,6 +54,7 @@ from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractSimulator
 from ._budgets import (
+    HEIGHT_THRESHOLD,
     PHASE_THRESHOLD,
     Budget,
     LobeGeometry,
@@ -374,4 +377,7 @@ class ModerateDeviationTrack(AbstractTrack):
             value = eta_max * both
             meaning = "η_max max(envelope terms) (seed eq. 12; seed 002 eq. 11)"
         budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning))
+        budgets.append(Budget("epsilon_height", lobe.height_under_beam_rms(), HEIGHT_THRESHOLD,
+                              "rms phase of one height per range line and pulse (the "
+                              "grid's under the beam centre) for each cell's own"))
         return budgets
