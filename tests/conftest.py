@@ -47,9 +47,9 @@ def _trim():
 # the other worker idles.
 _MODULE_SECONDS = {
     "test_docs.py": 173,  # the site's build, every notebook executed
-    "test_inverse.py": 101, "test_readme.py": 74,
+    "test_inverse.py": 101, "test_fidelity.py": 80, "test_readme.py": 74,
     "test_high_speed.py": 73, "test_validity.py": 68, "test_gradients_all.py": 60,
-    "test_fourier.py": 57, "test_export.py": 56, "test_fidelity.py": 53,
+    "test_fourier.py": 57, "test_export.py": 56,
     "test_squint_fourier.py": 48, "test_distributed.py": 46, "test_campaign.py": 43,
     "test_sharding.py": 39, "test_autofocus.py": 34, "test_nufft.py": 33,
     "test_compilation_cache.py": 32, "test_focusing.py": 32, "test_properties.py": 31,

@@ -358,7 +358,7 @@ def _check_spaceborne(method, case):
 
 
 @pytest.mark.parametrize("method", METHODS)
-@settings(max_examples=2, **SETTINGS)
+@settings(max_examples=1, **SETTINGS)
 @given(case=spaceborne_scenes())
 def test_no_warning_means_accurate_spaceborne(method, case):
     _check_spaceborne(method, case)
@@ -372,14 +372,14 @@ def test_no_warning_means_accurate_spaceborne_many(method, case):
     _check_spaceborne(method, case)
 
 
-@pytest.mark.parametrize("method", ["small_deviation", "moderate_deviation"])
-def test_an_echo_in_an_alias_band_keeps_its_pointing_terms(method):
+def test_an_echo_in_an_alias_band_keeps_its_pointing_terms(method="small_deviation"):
     """On the spaceborne set a target 13.8 km before the window is seen 0.3 beamwidths
     off the beam centre: its echo lies at 1.5 PRF, in the alias bands ±1 and ±2. The
     alias bands took the pattern's zeroth pointing term and no range alias only: with a
     pointing jitter of 0.05 λ/L that was −21.4 dB against the exact model (−27.8 dB with
-    none), without a warning. Every band now takes what the principal one does: −35.3
-    dB (−35.1 dB without jitter)."""
+    none), without a warning, with ``small_deviation`` and ``moderate_deviation`` alike
+    (the engine's one band synthesis). Every band now takes what the principal one
+    does: −35.3 dB (−35.1 dB without jitter)."""
     radar = _space_radar(0.0)
     x = (np.arange(radar.num_pulses) - (radar.num_pulses - 1) / 2) * float(radar.azimuth_spacing)
     motion = sj.Motion(pointing=sj.seed_pointing_jitter(radar, x, amplitude_fraction=0.05,

@@ -550,7 +550,7 @@ class LobeGeometry:
         return np.asarray(geometry.line_of_sight_deviation(
             self._dy, self._dz, float(radar.reference_range), 0.0, float(radar.height)))[:, None]
 
-    def height_under_beam_rms(self, max_pulses=256, max_cells=32) -> float:
+    def height_under_beam_rms(self, max_pulses=128, max_cells=32) -> float:
         """rms phase [rad] of Algorithm B's line height on a grid: B forms each range
         line's deviation ``δr_xr(x', r_j, h)`` with one height per pulse, the grid's at
         the beam centre (``_fourier_engine.line_height_under_beam``), where the exact
