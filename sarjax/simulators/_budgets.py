@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import equinox as eqx
 import jax
@@ -35,6 +36,7 @@ import numpy as np
 from .. import _exported, antenna, geometry
 from ..constants import SPEED_OF_LIGHT
 from ..scene import PointTargets, ReflectivityGrid
+from . import _fourier_engine as engine
 
 PHASE_THRESHOLD = 0.1  # [rad]
 HEIGHT_THRESHOLD = 0.05  # [rad] rms, energy-weighted: an NMSE of −26 dB
@@ -576,10 +578,10 @@ class LobeGeometry:
         radar, squint = self._radar, self.squint
         tan_d, platform = math.tan(squint), float(radar.height)
         r = rg[lines][:, None, None]  # (line, pulse, cell)
-        step = (az[-1] - az[0]) / (az.size - 1) if az.size > 1 else 1.0
-        row = np.clip(np.round((x_p[None, :] + rg[lines][:, None] * tan_d - az[0]) / step),
-                      0, az.size - 1).astype(int)  # (line, pulse)
-        beam = np.take_along_axis(heights[:, lines].T, row, axis=1)[:, :, None]
+        # the height the engine gives each (line, pulse): its own rule
+        layout = SimpleNamespace(azimuth=jnp.asarray(az), height=jnp.asarray(heights[:, lines]))
+        beam = np.asarray(engine.line_height_under_beam(
+            layout, jnp.asarray(x_p), jnp.asarray(rg[lines]), tan_d))[:, :, None]
         own = heights[np.ix_(cells, lines)].T[:, None, :]  # (line, 1, cell)
         los = lambda h: np.asarray(geometry.line_of_sight_deviation(
             dy[None, :, None], dz[None, :, None], r, h, platform))
