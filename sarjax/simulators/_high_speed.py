@@ -63,7 +63,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics.interpolation import next_fast_len, periodic_rows
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
@@ -96,34 +96,24 @@ def _grid_spectra(values, offset, n_x):
         (n_x, p) ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``.
     """
     spectrum = jnp.fft.fft(values, n=n_x, axis=1)
-    spectrum = spectrum * unit_phasor(-_TWO_PI * jnp.fft.fftfreq(n_x) * offset)[None, :]
+    spectrum = spectrum * reduced_phasor(-_TWO_PI * jnp.fft.fftfreq(n_x) * offset,
+                                         spectrum.dtype)[None, :]
     n_lines = values.shape[0]
     p = next_fast_len(2 * n_lines)
     padded = jnp.roll(jnp.pad(spectrum, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
     return periodic_rows(jnp.fft.fft(padded.T, axis=1))
 
 
-def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, chunk=16):
-    """(n_x, n_c) Σ_j w_j e^{−jξ (x_j − x0)} e^{−jκ (r_j − r_ref)} for points, with ξ and κ
-    given per (ξ, η) cell; returns it and r_ref (the first range)."""
-    n = weights.shape[0]
-    chunk = min(chunk, n)
-    n_chunks = -(-n // chunk)
-    pad = n_chunks * chunk - n
-    r_ref = ranges[0]
+def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, dtype):
+    """(n_x, n_c) Σ_j w_j e^{−jξ (x_j − x0)} e^{−jκ r_j} for points, with ξ and κ given per
+    (ξ, η) cell, in the complex ``dtype`` (phases formed in float64, reduced before the
+    phasor: ``reduced_phasor``), one elementwise pass per chunk of points
+    (:func:`._fourier_engine.sum_of_terms`)."""
 
-    def prep(a, fill):
-        return jnp.pad(a, (0, pad), constant_values=fill).reshape(n_chunks, chunk)
+    def term(w, x, r):
+        return w.astype(dtype) * reduced_phasor(-(xi * (x - x0) + kappa * r), dtype)
 
-    def body(acc, block):
-        w, x, r = block
-        phase = xi[None] * (x - x0)[:, None, None] + kappa[None] * (r - r_ref)[:, None, None]
-        return acc + jnp.sum(w[:, None, None] * unit_phasor(-phase), axis=0), None
-
-    init = jnp.zeros(kappa.shape, jnp.complex128)
-    out, _ = jax.lax.scan(body, init, (prep(weights, 0.0), prep(azimuths, azimuths[0]),
-                                       prep(ranges, ranges[0])))
-    return out, r_ref
+    return engine.sum_of_terms(term, (weights, azimuths, ranges), kappa.shape, dtype)
 
 
 class HighSpeedPlan(AbstractPlan):
@@ -251,6 +241,10 @@ class HighSpeed(AbstractStraightTrackSimulator):
         eta = _TWO_PI * jnp.fft.fftfreq(n_r, 1.0) / dr
         near = acquisition.near_range
         gridded = isinstance(scene, ReflectivityGrid)
+        # the tables, the synthesis and the transforms in the output's precision, the
+        # phases formed in float64 (complex64: reduced before a float32 phasor)
+        work = jnp.dtype(dtype)
+        real = jnp.finfo(work).dtype
 
         # per velocity group: grid → DTFT over range lines of F_j(ξ) √r_j e^{−j k₀ r_j} on
         # the sampled ξ; points → weights γ √r e^{−j k₀ r} (their ξ phase per cell)
@@ -264,7 +258,8 @@ class HighSpeed(AbstractStraightTrackSimulator):
                           * line_factor[None, :]).T  # (n_lines, n_az)
                 # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
                 offset = (scene.azimuth[0] - x0) / dx
-                groups.append((v_r, v_a, _grid_spectra(values, offset, n_x), ranges, offset))
+                groups.append((v_r, v_a, _grid_spectra(values.astype(work), offset, n_x),
+                               ranges, offset))
             else:
                 idx = jnp.asarray(index)
                 ranges = scene.range[idx]
@@ -286,15 +281,18 @@ class HighSpeed(AbstractStraightTrackSimulator):
             keep = (xi_cells - centroid > lower) if plan.bands else True
             acc = 0.0
             for v_r, v_a, data, ranges, where in groups:
+                # κ in float64 (it multiplies ranges in a phase); the amplitude and the
+                # pattern in the output's precision
                 kappa, amplitude, u = spectrum_terms(
-                    radar, xi_cells, k, v_r, v_a, self.stop_and_go)
+                    radar, xi_cells, k, v_r, v_a, self.stop_and_go, real_dtype=real)
                 if gridded:
                     summed, r_ref = engine.synthesize_grid(data, ranges, kappa, self.taps)
                     alias = jnp.round((xi_cells - xi[None, :]) * dx / _TWO_PI)
-                    summed = summed * unit_phasor(-_TWO_PI * alias * where)
+                    summed = summed * reduced_phasor(
+                        -(_TWO_PI * alias * where + kappa * r_ref), work)
                 else:
-                    summed, r_ref = _direct_sum(data, where, ranges, x0, xi_cells, kappa)
-                acc = acc + summed * unit_phasor(-kappa * r_ref) * amplitude * radar.pattern(u)
+                    summed = _direct_sum(data, where, ranges, x0, xi_cells, kappa, work)
+                acc = acc + summed * (amplitude * radar.pattern(u)).astype(work)
             return jnp.where(keep, acc, 0.0)
 
         def columns(eta_m):
@@ -303,8 +301,9 @@ class HighSpeed(AbstractStraightTrackSimulator):
             acc = engine.add_alias_bands(band(0.0, eta_m),
                                          lambda k: band(k, eta_m), plan.bands)
             factor = engine.chirp_spectrum(radar, eta_m) * unit_phasor(eta_m * near) / dr
-            along = jnp.fft.ifft(acc * factor[:, None], axis=1)[:, pad:pad + n_pulses]
-            carrier = unit_phasor(xi_c * (x_pulses - x0))  # back from the ξ_d-centred grid
+            along = jnp.fft.ifft(acc * factor.astype(work)[:, None], axis=1)[:, pad:pad + n_pulses]
+            # back from the ξ_d-centred grid
+            carrier = reduced_phasor(xi_c * (x_pulses - x0), work)
             return (along * carrier[None, :]).astype(dtype)
 
         def chunked(eta_cols):
