@@ -269,7 +269,7 @@ def section(info, cfg, quick, grid, fft, rows, acc, load, load_end, total, missi
             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
         ]
         for scene, groups, r, peak in rows:
-            ratio = "–" if fft is None else f"{r['wall'] / fft['wall']:.0f}"
+            ratio = "–" if fft is None else f"{r['wall'] / fft['wall']:.1f}"
             lines.append(
                 f"| {scene} ({'5 static' if scene == 'static' else '5 static + 3 moving'}) "
                 f"| {groups} | {_compile_text(r)} | {r['wall']:.1f} | {r['cpu']:.1f} "

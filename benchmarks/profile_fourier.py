@@ -13,7 +13,7 @@ its time split into:
 * **column loop, transforms**: FFTs inside the program's loops (the per-column azimuth
   inverse transforms);
 * **column loop, synthesis**: everything else inside the loops (the range synthesis:
-  κ(ξ, η), the windowed-sinc reads of the scene's DTFT table, phasors, weights);
+  κ(ξ, η), the kernel reads of the scene's DTFT table, phasors, weights);
 * **scene tables, transforms**: FFTs outside the loops (the scene's 2-D transform / line
   DTFTs, the track's per-line transforms, the final range transform);
 * **scene tables, elementwise**: every other operation outside the loops (scene factors,

@@ -77,7 +77,7 @@ def test_reflectivity_grid_with_heights_matches_time_domain(method):
     raw = sj.simulate(radar, grid, motion, method=method, **kw)
     assert raw.method == method
     # −30 dB focused with the natural antenna weighting: the grid path adds the
-    # windowed-sinc interpolation (≈ −49 dB) to the point path's residuals (≈ −38 dB)
+    # Stolt interpolation (≈ −60 dB) to the point path's residuals (≈ −38 dB)
     assert _focused_nmse(radar, raw, ref, motion, weighting="antenna") <= -30.0
     # the default full-band focusing boosts the band edges (pattern floor 0.05), where
     # the Fourier models omit the Doppler aliases: still within the issue's −25 dB

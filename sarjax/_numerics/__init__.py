@@ -1,2 +1,3 @@
 """Numerics shared by the simulators and the processors: phasors by multiply-adds and
-windowed-sinc / linear interpolation (imports nothing else from sarjax)."""
+windowed-sinc, exponential-of-semicircle and linear interpolation (imports nothing else
+from sarjax)."""

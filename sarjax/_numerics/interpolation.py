@@ -71,37 +71,45 @@ def periodic_rows(table, guard: int = 16) -> PeriodicRows:
     return PeriodicRows(jnp.concatenate([table, table[:, :guard]], axis=1), table.shape[1])
 
 
-def sinc_interpolate_rows(table, positions, *, taps: int = 8):
-    """Periodic windowed-sinc interpolation of each row of ``table``, output transposed.
+def kernel_interpolate_rows(table, positions, coefficients):
+    """Interpolation of each periodic row of ``table`` with a compact kernel given as
+    polynomials per tap, output transposed: ``out[c, i] = Σ_t φ(s + t − x) row_i[s + t]``,
+    ``x = positions[c, i]``, ``s = ⌈x − w/2⌉``.
 
-    ``out[c, i]`` interpolates row ``i`` of ``table`` (periodic) at ``positions[c, i]``;
-    same kernel as :func:`sinc_interpolate`. Producing the (column, row) layout directly
-    lets the consumer transform along the rows' axis without a transpose of a fused
-    interpolation (XLA would recompute it per consumer, with strided reads). Each output
-    reads one contiguous window of ``taps`` samples (one gather of a slice, not one per
-    tap): made a :class:`PeriodicRows` once (:func:`periodic_rows`), a table serves any
-    number of calls without copying.
+    With the exponential-of-semicircle kernel (:mod:`.es_kernel`) on a table made from
+    samples divided by the kernel's transform, this is the type-2 step of a non-uniform
+    FFT: the DTFT of those samples at ``x`` (``simulators._fourier_engine.grid_dtft``).
+    Producing the (column, row) layout directly lets the consumer transform along the
+    rows' axis without a transpose of a fused interpolation; each output reads one
+    contiguous window of ``w`` samples (one gather of a slice).
 
     Args:
-        table: (n_rows, p) one period per row, or :class:`PeriodicRows` with a guard
-            ≥ ``taps``.
-        positions: (m, n_rows) fractional positions along the rows.
+        table: :class:`PeriodicRows` (n_rows, p) with a guard ≥ w.
+        positions: (m, n_rows) fractional positions along the rows (float64: a row is
+            hundreds of samples long).
+        coefficients: (degree + 1, w) ``coefficients[k, t]``, the coefficient of ``f^k``
+            of tap t's weight ``φ(f + t − w/2)``, ``f = s − (x − w/2) ∈ [0, 1)``
+            (:func:`.es_kernel.spreading_kernel`).
 
     Returns:
-        (m, n_rows).
+        (m, n_rows), in the table's dtype (the weights in its real precision).
     """
-    if not isinstance(table, PeriodicRows):
-        table = periodic_rows(table, taps)
     values, period = table
     n_rows, width = values.shape
+    taps = coefficients.shape[1]
     if width - period < taps or taps > period:
-        raise ValueError(f"taps={taps} exceeds the table's guard ({width - period}) or "
-                         f"period ({period})")
-    # positions in float64 (a table row is hundreds of samples long); the kernel weights
-    # in the table's precision
-    base, weights, _ = _sinc_weights(positions, taps, jnp.finfo(values.dtype).dtype)
+        raise ValueError(f"a kernel of {taps} taps exceeds the table's guard "
+                         f"({width - period}) or period ({period})")
+    real = jnp.finfo(values.dtype).dtype
+    first = jnp.ceil(positions - taps / 2)
+    f = (first - (positions - taps / 2)).astype(real)[..., None]
+    c = jnp.asarray(coefficients, real).reshape(
+        (coefficients.shape[0],) + (1,) * positions.ndim + (taps,))
+    weights = jnp.broadcast_to(c[-1], f.shape[:-1] + (taps,))
+    for k in range(c.shape[0] - 2, -1, -1):  # Horner, every tap at once
+        weights = weights * f + c[k]
     # first tap of the window, in [0, period): the window then lies inside the row
-    start = jnp.mod(base.astype(jnp.int32) - (taps // 2 - 1), period)
+    start = jnp.mod(first.astype(jnp.int32), period)
     rows = jnp.broadcast_to(jnp.arange(n_rows, dtype=jnp.int32), start.shape)
     window = jax.lax.gather(
         values, jnp.stack([rows, start], axis=-1),

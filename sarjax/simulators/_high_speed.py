@@ -42,7 +42,7 @@ as in the exact model, with its squint form).
 ``(v_r, v_a)``; static scatterers are one group); per group, range lines ``F_j(ξ)``
 (azimuth FFT of the reflectivity, carrier ``e^{−j k₀ r_j}``), the sum
 ``Σ_j F_j(ξ) √r_j e^{−j (κ − k₀) r_j}`` — the inverse Stolt (range-frequency) mapping,
-for a grid an FFT over lines and windowed-sinc interpolation — then × chirp spectrum
+for a grid an FFT over lines and interpolation by a compact kernel — then × chirp spectrum
 (reference function of range), × ``A W²``; groups summed; 2-D inverse FFT. The azimuth
 wavenumbers are centred on the Doppler centroid ``ξ_d = (4π/λ) sin φ_d``, so squinted
 (and PRF-aliased) spectra are synthesised at their true ξ. The work is done in chunks of
@@ -62,7 +62,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics.interpolation import next_fast_len, periodic_rows
+from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import ReflectivityGrid
 from . import _extent as extent
@@ -82,26 +82,24 @@ def nearest_alias(xi, k, squint, dx):
     return xi + period * engine.alias_shift((k * jnp.sin(squint) - xi) / period)
 
 
-def _grid_spectra(values, offset, n_x):
-    """Azimuth DFT of grid rows aligned with the pulses, then the 2×-oversampled DFT over
-    range lines about the middle line (the inverse Stolt sum of
+def _grid_spectra(values, offset, n_x, taps):
+    """Azimuth DFT of grid rows aligned with the pulses, then the DTFT over range lines
+    about the middle line (the inverse Stolt sum of
     :func:`._fourier_engine.synthesize_grid`).
 
     Args:
         values: (n_lines, n_az) modulated reflectivity, one row per range line.
         offset: (x_first − x0)/Δx, the first grid row in pulse spacings from the DFT origin.
         n_x: azimuth DFT length.
+        taps: the interpolation kernel's width [cells].
 
     Returns:
-        (n_x, p) ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``, ``ω_k = 2πk/p``.
+        :class:`._fourier_engine.StoltTable` of ``D(ξ, ω_k) = Σ_j F_j(ξ) e^{−jω_k (j − j_c)}``.
     """
     spectrum = jnp.fft.fft(values, n=n_x, axis=1)
     spectrum = spectrum * reduced_phasor(-_TWO_PI * jnp.fft.fftfreq(n_x) * offset,
                                          spectrum.dtype)[None, :]
-    n_lines = values.shape[0]
-    p = next_fast_len(2 * n_lines)
-    padded = jnp.roll(jnp.pad(spectrum, ((0, p - n_lines), (0, 0))), -(n_lines // 2), axis=0)
-    return periodic_rows(jnp.fft.fft(padded.T, axis=1))
+    return engine.grid_dtft(spectrum, taps)
 
 
 def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, dtype):
@@ -168,7 +166,8 @@ class HighSpeed(AbstractStraightTrackSimulator):
             band: alias m is synthesised only on the columns its spectrum reaches at this
             level, counted from the band edge (as the track simulators'; seed 004's
             40 µs chirp needs none at the default −45 dB, its 1 µs one half the columns).
-        taps: windowed-sinc length of the inverse Stolt interpolation (grids).
+        taps: width [cells] of the inverse Stolt interpolation's kernel (grids; see
+            ``AbstractFourierSimulator``).
         column_chunk: range-wavenumber columns per step (memory bound).
     """
 
@@ -183,7 +182,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
     azimuth_padding: float | None = eqx.field(static=True, default=None)
     range_aliases: int = eqx.field(static=True, default=1)
     alias_tolerance: float = eqx.field(static=True, default=10 ** -4.5)
-    taps: int = eqx.field(static=True, default=8)
+    taps: int = eqx.field(static=True, default=4)
     column_chunk: int = eqx.field(static=True, default=256)
 
     def prepare(self, radar, scene, acquisition, motion=None) -> HighSpeedPlan:
@@ -210,10 +209,10 @@ class HighSpeed(AbstractStraightTrackSimulator):
                    + item * spectra)
 
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
-        """≈ 6 FFT2-equivalents of the padded grid per velocity group and Doppler band
-        (benchmarks/RESULTS.md, seed 004 Table 1: 5.3 for one group, 23 for four)."""
+        """≈ 2 + 0.6 per velocity group FFT2-equivalents of the padded grid per Doppler
+        band (benchmarks/RESULTS.md, seed 004 Table 1: 2.5 for one group, 4.1 for four)."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
-        steady = (6 * 8e-9 * n_x * plan.range_fft_size * len(plan.groups)
+        steady = ((2 + 0.6 * len(plan.groups)) * 8e-9 * n_x * plan.range_fft_size
                   * (2 * plan.bands + 1))
         return Cost(compile=3.0, steady=steady)
 
@@ -258,7 +257,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
                           * line_factor[None, :]).T  # (n_lines, n_az)
                 # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
                 offset = (scene.azimuth[0] - x0) / dx
-                groups.append((v_r, v_a, _grid_spectra(values.astype(work), offset, n_x),
+                groups.append((v_r, v_a, _grid_spectra(values.astype(work), offset, n_x, self.taps),
                                ranges, offset))
             else:
                 idx = jnp.asarray(index)
@@ -286,7 +285,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
                 kappa, amplitude, u = spectrum_terms(
                     radar, xi_cells, k, v_r, v_a, self.stop_and_go, real_dtype=real)
                 if gridded:
-                    summed, r_ref = engine.synthesize_grid(data, ranges, kappa, self.taps)
+                    summed, r_ref = engine.synthesize_grid(data, ranges, kappa)
                     alias = jnp.round((xi_cells - xi[None, :]) * dx / _TWO_PI)
                     summed = summed * reduced_phasor(
                         -(_TWO_PI * alias * where + kappa * r_ref), work)
