@@ -685,21 +685,32 @@ def pattern_weights(radar, xi, order):
     return base, steep
 
 
-def coupled_inverse(lines, los, alpha, order):
-    """(n_lines, n_x) ``Σ_ξ Y(ξ) e^{jξx'} e^{−jα(ξ) δ(x')}`` by a Taylor series of order
-    ``order`` in ``δ − δ̄`` (δ̄ the mean over pulses of each line)."""
+def coupling_factors(los, alpha, order, dtype):
+    """The per-(line, x') factors of :func:`coupled_inverse`, formed once for every line
+    set: ``(e^{−jα δ̄}`` (n_lines, n_x) over ξ, ``[(−jδ)ⁿ/n!`` (n_lines, n_x) over x' for
+    n = 1 … order]``), δ = δr_xr − δ̄ (δ̄ the mean over pulses of each line), in the
+    complex ``dtype`` (phases in float64)."""
     mean = jnp.mean(los, axis=1, keepdims=True)  # (n_lines, 1)
-    base = lines * reduced_phasor(-alpha[None, :] * mean, lines.dtype)
-    real = jnp.finfo(lines.dtype).dtype
+    real = jnp.finfo(dtype).dtype
     delta = (los - mean).astype(real)
-    alpha = alpha.astype(real)
-    out = jnp.fft.ifft(base, axis=1)
-    term = base
-    coef = jnp.ones_like(delta, dtype=base.dtype)
+    coefs, coef = [], jnp.ones_like(delta, dtype=dtype)
     for n in range(1, order + 1):
-        term = term * alpha[None, :]
         coef = coef * (-1j * delta) / n
-        out = out + coef * jnp.fft.ifft(term, axis=1)
+        coefs.append(coef)
+    return reduced_phasor(-alpha[None, :] * mean, dtype), coefs
+
+
+def coupled_inverse(lines, alpha, factors):
+    """(n_lines, n_x) ``Σ_ξ Y(ξ) e^{jξx'} e^{−jα(ξ) δ(x')}`` by a Taylor series in
+    ``δ − δ̄`` of the order of ``factors`` (:func:`coupling_factors`)."""
+    base_phasor, coefs = factors
+    base = lines * base_phasor
+    alpha = alpha.astype(jnp.finfo(lines.dtype).dtype)
+    out = jnp.fft.ifft(base, axis=-1)
+    term = base
+    for coef in coefs:
+        term = term * alpha[None, :]
+        out = out + coef * jnp.fft.ifft(term, axis=-1)
     return out
 
 

@@ -304,15 +304,13 @@ class ModerateDeviationTrack(AbstractTrack):
 
     kappa: ClassVar = staticmethod(engine.kappa_b)  # B's κ_B = √(η̄² − ξ²) − √(k₀² − ξ²)
 
-    def _lines(self, ctx, sim, lines, envelope):
-        """Along-track part of B for one line set (n_lines, n_x); with ``envelope`` the
-        first-order envelope lines ``s(ξ) ψ + R′(ξ) Δξ + R″(ξ) Δξ²/2`` instead: ψ, and
-        the range migration ``R(ξ) = r k₀/√(k₀² − ξ²)`` that ψ's Doppler shift
-        ``Δξ = k₀ cos φ_d ∂ψ/∂x'`` moves its echo by, to second order."""
-        k0, kz, xi, ranges = ctx.k0, ctx.kz, ctx.xi, ctx.ranges
-        work = lines.dtype  # phases in float64, reduced before a phasor of this precision
-        real = jnp.finfo(work).dtype
-        lines = lines * reduced_phasor(-(kz - k0)[None, :] * ranges[:, None], work)
+    def _factors(self, ctx, sim, work):
+        """The per-(line, x') factors every line set shares: the ``G_A`` carrier
+        ``e^{−j(k_z − k₀) r_j}`` (over ξ), ψ, the coupling's factors and the motion phase
+        ``e^{−jk₀ cos φ_d ψ}`` (operands of :meth:`line_sets`' loop over the sets, so
+        formed once)."""
+        k0, kz, ranges = ctx.k0, ctx.kz, ctx.ranges
+        carrier = reduced_phasor(-(kz - k0)[None, :] * ranges[:, None], work)
         fill = (ctx.pad, ctx.n_x - ctx.n_pulses - ctx.pad)
         dy_full = jnp.pad(ctx.horizontal, fill, mode="edge")
         dz_full = jnp.pad(ctx.vertical, fill, mode="edge")
@@ -325,13 +323,30 @@ class ModerateDeviationTrack(AbstractTrack):
             dy_full[None, :], dz_full[None, :], ranges[:, None], h_line, ctx.radar.height
         )  # δr_xr(x', r_j)
         psi = los - geometry.reference_deviation(dy_full, dz_full, ctx.radar)[None, :]
-        if sim.coupling_order:
-            along = engine.coupled_inverse(lines, los, kz - k0 * ctx.cos_d, sim.coupling_order)
+        coupling = (engine.coupling_factors(los, kz - k0 * ctx.cos_d, sim.coupling_order, work)
+                    if sim.coupling_order else None)
+        motion_phase = reduced_phasor(-k0 * ctx.cos_d * psi, work)
+        return carrier, psi, coupling, motion_phase
+
+    def _along_track(self, ctx, sim, lines, factors):
+        """(n_lines, n_x) along-track part of B on the pulses x' for one line set
+        (n_lines, n_x) over ξ, with the shared ``factors`` (:meth:`_factors`): ``G_A``,
+        the coupling, the motion phase."""
+        carrier, _, coupling, motion_phase = factors
+        lines = lines * carrier
+        if coupling is not None:
+            along = engine.coupled_inverse(lines, ctx.kz - ctx.k0 * ctx.cos_d, coupling)
         else:
             along = jnp.fft.ifft(lines, axis=1)  # (line, x'): the seed's B
-        along = along * reduced_phasor(-k0 * ctx.cos_d * psi, work)
-        if not envelope:
-            return jnp.fft.fft(along, axis=1)
+        return along * motion_phase
+
+    def _envelope(self, ctx, along, psi):
+        """The first-order envelope lines ``s(ξ) ψ + R′(ξ) Δξ + R″(ξ) Δξ²/2`` of one set
+        (``along`` from :meth:`_along_track`): ψ, and the range migration
+        ``R(ξ) = r k₀/√(k₀² − ξ²)`` that ψ's Doppler shift ``Δξ = k₀ cos φ_d ∂ψ/∂x'``
+        moves its echo by, to second order."""
+        k0, kz, xi, ranges = ctx.k0, ctx.kz, ctx.xi, ctx.ranges
+        real = jnp.finfo(along.dtype).dtype
         slope = (jnp.gradient(psi, axis=1) / ctx.dx).astype(real)
         spread = (k0 / kz).astype(real)[None, :] * jnp.fft.fft(along * psi.astype(real), axis=1)
         doppler = k0 * ctx.cos_d  # ψ's Doppler shift per unit slope, Δξ = k₀ cos φ_d ∂ψ/∂x'
@@ -343,13 +358,26 @@ class ModerateDeviationTrack(AbstractTrack):
 
     def line_sets(self, ctx, sim, spectrum, column_weight, weights):
         # per pointing order (the pattern precedes the motion phase), and the set the
-        # synthesis multiplies by η: the pattern's η-slope, −j × the envelope lines
-        # in the spectrum's precision: the per-ξ weights cast to it
-        weighted = lambda w: spectrum * (column_weight * w).astype(spectrum.dtype)[None, :]
-        sets = [self._lines(ctx, sim, weighted(w), False) for w, _ in weights]
-        eta_set = self._lines(ctx, sim, weighted(weights[0][1]), False)
+        # synthesis multiplies by η: the pattern's η-slope, −j × the envelope lines of
+        # the zeroth order's set; in the spectrum's precision (the per-ξ weights cast to
+        # it). The sets run in a loop over their per-ξ weights: its operands (the weights,
+        # the shared factors) are formed once; written as separate sets, XLA fused the
+        # weights' and the factors' formation (the pattern's derivatives, the phasors)
+        # into each set's products and formed them once per (line, ξ) sample and set.
+        work = spectrum.dtype
+        stacked = jnp.stack([(column_weight * w).astype(work)
+                             for w in [w for w, _ in weights] + [weights[0][1]]])
+        factors = self._factors(ctx, sim, work)
+
+        def one_set(_, weight):
+            along = self._along_track(ctx, sim, spectrum * weight[None, :], factors)
+            return None, jnp.fft.fft(along, axis=1)
+
+        spectra = jax.lax.scan(one_set, None, stacked)[1]
+        sets, eta_set = [spectra[i] for i in range(len(weights))], spectra[-1]
         if sim.envelope_correction:
-            eta_set = eta_set - 1j * self._lines(ctx, sim, weighted(weights[0][0]), True)
+            along = self._along_track(ctx, sim, spectrum * stacked[0][None, :], factors)
+            eta_set = eta_set - 1j * self._envelope(ctx, along, factors[1])
         return sets, eta_set
 
     def phase_budgets(self, sim, lobe):
