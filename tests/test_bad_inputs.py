@@ -891,3 +891,12 @@ def test_cli_shell_bad_input_has_no_traceback(tmp_path):
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
     assert done.stderr.startswith("sarjax: error: ")
     assert not (tmp_path / "raw.nc").exists()
+
+
+@pytest.mark.parametrize("method", ["fourier_2d", "small_deviation", "moderate_deviation",
+                                    "high_speed"])
+@pytest.mark.parametrize("taps", [0, 1, 17, 2.5, True])
+def test_stolt_kernel_width_outside_its_range(method, taps):
+    """The inverse Stolt interpolation's kernel must fit the table's 16-cell guard."""
+    with pytest.raises(ValueError, match=f"taps={taps!r} must be an integer from 2 to 16"):
+        _simulate(method=method, taps=taps)

@@ -146,6 +146,7 @@ class AbstractFourierSimulator(AbstractSimulator):
         if self.column_block is not None and not (
                 isinstance(self.column_block, int) and self.column_block >= 1):
             raise ValueError(f"column_block={self.column_block!r} must be a positive integer")
+        engine.check_stolt_taps(self.taps)
 
     def support(self, radar, scene, acquisition):
         """The Doppler alias bands synthesised for this scene

@@ -203,6 +203,13 @@ class StoltTable(NamedTuple):
     taps: int
 
 
+def check_stolt_taps(taps):
+    """A Stolt kernel width the table's guard holds: an integer of 2 … 16 cells."""
+    if isinstance(taps, bool) or not isinstance(taps, (int, np.integer)) or not 2 <= taps <= 16:
+        raise ValueError(f"taps={taps!r} must be an integer from 2 to 16 (the width of the "
+                         "inverse Stolt interpolation's kernel, in cells; 4 by default)")
+
+
 def stolt_deapodization(n_lines, taps):
     """(n_lines,) 1/φ̂ of each line's offset ``j − j_c`` from the middle line: the factor
     that makes the ``taps``-cell exponential-of-semicircle interpolation of the table

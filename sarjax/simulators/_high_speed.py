@@ -185,6 +185,9 @@ class HighSpeed(AbstractStraightTrackSimulator):
     taps: int = eqx.field(static=True, default=4)
     column_chunk: int = eqx.field(static=True, default=256)
 
+    def __check_init__(self):
+        engine.check_stolt_taps(self.taps)
+
     def prepare(self, radar, scene, acquisition, motion=None) -> HighSpeedPlan:
         """Velocity groups and FFT sizes from the concrete inputs: room in range for the
         walk and curvature of an echo over the padded azimuth window (squinted echoes
