@@ -328,7 +328,7 @@ class ModerateDeviationTrack(AbstractTrack):
         motion_phase = reduced_phasor(-k0 * ctx.cos_d * psi, work)
         return carrier, psi, coupling, motion_phase
 
-    def _along_track(self, ctx, sim, lines, factors):
+    def _along_track(self, ctx, lines, factors):
         """(n_lines, n_x) along-track part of B on the pulses x' for one line set
         (n_lines, n_x) over ξ, with the shared ``factors`` (:meth:`_factors`): ``G_A``,
         the coupling, the motion phase."""
@@ -370,14 +370,18 @@ class ModerateDeviationTrack(AbstractTrack):
         factors = self._factors(ctx, sim, work)
 
         def one_set(_, weight):
-            along = self._along_track(ctx, sim, spectrum * weight[None, :], factors)
+            along = self._along_track(ctx, spectrum * weight[None, :], factors)
             return None, jnp.fft.fft(along, axis=1)
 
-        spectra = jax.lax.scan(one_set, None, stacked)[1]
-        sets, eta_set = [spectra[i] for i in range(len(weights))], spectra[-1]
-        if sim.envelope_correction:
-            along = self._along_track(ctx, sim, spectrum * stacked[0][None, :], factors)
-            eta_set = eta_set - 1j * self._envelope(ctx, along, factors[1])
+        if not sim.envelope_correction:
+            spectra = list(jax.lax.scan(one_set, None, stacked)[1])
+            return spectra[:-1], spectra[-1]
+        # the zeroth order's set outside the loop: its along-track lines serve the
+        # envelope lines too
+        along = self._along_track(ctx, spectrum * stacked[0][None, :], factors)
+        spectra = [jnp.fft.fft(along, axis=1)] + list(jax.lax.scan(one_set, None, stacked[1:])[1])
+        sets, eta_set = spectra[:-1], spectra[-1]
+        eta_set = eta_set - 1j * self._envelope(ctx, along, factors[1])
         return sets, eta_set
 
     def phase_budgets(self, sim, lobe):
