@@ -247,7 +247,7 @@ def dtft_length(n_lines):
     """DTFT length p of :func:`grid_dtft`: ≥ 1.8 n_lines, a fast FFT length, and at least
     16 (a kernel's window must fit in one period of a grid of a few lines); the smaller
     table stays below the size where the allocator hands out fresh pages on every call."""
-    return next_fast_len(max(-(-9 * n_lines // 5), 16))
+    return next_fast_len(max(-(-9 * n_lines // 5), 16))  # ⌈STOLT_OVERSAMPLING · n⌉ in integers
 
 
 def grid_spectrum_dtft(values, n_x, taps):
