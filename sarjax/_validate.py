@@ -282,7 +282,9 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False,
         return
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
-        report = simulator.budgets(radar, scene, realization, acquisition, dtype)
+        # one realization: the swath check's scatterers are this budget's too
+        report = simulator.budgets(radar, scene, realization, acquisition, dtype,
+                                   outside=outside if len(realizations) == 1 else None)
         broken = [b for b in report.violated if b.name != "range_window"]
         if broken:
             which = f" (realization {index})" if len(realizations) > 1 else ""

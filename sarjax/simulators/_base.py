@@ -116,8 +116,8 @@ class AbstractSimulator(eqx.Module):
         methods' complex64 rounding)."""
         return ()
 
-    def budgets(self, radar, scene, motion, acquisition,
-                dtype=jnp.complex128) -> _budgets.Validity:
+    def budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128, *,
+                outside=None) -> _budgets.Validity:
         """Every budget of this run in ``dtype``: the approximations', then window and
         sampling.
 
@@ -125,9 +125,12 @@ class AbstractSimulator(eqx.Module):
         recorded: only a window that records nothing is a violation); the Fourier-domain
         methods add their grid's (``window_budgets``) and the chirp ends' Gibbs residual
         (``chirp_edges``), and the approximate ones their
-        approximation budgets (:mod:`sarjax.simulators._budgets`).
+        approximation budgets (:mod:`sarjax.simulators._budgets`). ``outside``: the
+        scatterers whose echoes miss the window, when the caller has them
+        (:func:`~sarjax.simulators._budgets.echoes_outside_window` of the same inputs).
         """
-        found = list(_budgets.range_window_budget(radar, scene, motion, acquisition))
+        found = list(_budgets.range_window_budget(radar, scene, motion, acquisition,
+                                                  outside))
         found += self.window_budgets(radar, scene, motion, acquisition, dtype)
         if not self.exact:  # synthesised from the chirp's spectrum: its ends ring
             found += _budgets.chirp_edge_budget(radar, scene, motion, acquisition,
