@@ -41,7 +41,7 @@ import numpy as np
 from .. import geometry
 from .._numerics.es_kernel import kernel_transform, kernel_width, spreading_kernel
 from .._numerics.interpolation import next_fast_len
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import ReflectivityGrid
 from ._base import AbstractExactSimulator, AbstractPlan, Cost
 from ._fourier_engine import chirp_spectrum
@@ -70,9 +70,10 @@ def _spread(points, amplitude, width, grid, coefficients, reach):
     """
     low = int(math.ceil(reach)) + width
     start = jnp.ceil(points - width / 2)
-    f = start - (points - width / 2)  # [0, 1)
+    real = jnp.finfo(amplitude.dtype).dtype  # the tap weights in the amplitude's precision
+    f = (start - (points - width / 2)).astype(real)  # [0, 1)
     first = jnp.clip(start, -low, grid + low).astype(jnp.int32) + low
-    table = jnp.asarray(coefficients)
+    table = jnp.asarray(coefficients, real)
 
     def add_tap(i, extended):
         c = table[:, i]
@@ -245,9 +246,13 @@ class TimeDomainNUFFT(AbstractExactSimulator):
                 u = (along - (scene.range + los) * daz) / radar.footprint(scene.range)
             position = (scene.range - near) + offset  # ρ − r'_0
             visible = (position > -half) & (position < window + half)
-            gain = jnp.where(visible, radar.pattern(u), 0.0)
-            amplitude = scene.reflectivity * gain * unit_phasor(-(carrier + k0 * offset))
-            return position, amplitude.astype(dtype)
+            # the pattern and the phasor in the output's precision: the phase is formed
+            # and reduced in float64 (reduced_phasor), the pattern's argument rounded
+            # only after the float64 geometry (complex64: −130 dB from complex128)
+            gain = jnp.where(visible, radar.pattern(u.astype(real)), 0.0)
+            amplitude = (scene.reflectivity.astype(dtype) * gain.astype(real)
+                         * reduced_phasor(-(carrier + k0 * offset), dtype))
+            return position, amplitude
 
         def one_pulse(pulse):
             position, amplitude = echo_geometry(pulse)
