@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sarjax._numerics.phasor import reduced_phasor, sine, unit_phasor
+from sarjax._numerics.phasor import reduced_phasor, sine, unit_phasor, wrap_phase
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e3, 1e6, 1e9])
@@ -21,6 +21,19 @@ def test_unit_phasor_matches_numpy(scale):
     error = np.abs(got - np.exp(1j * phase))
     assert np.all(error <= 2e-16 + 2e-16 * np.abs(phase) + 1e-16), error.max()
     assert got.dtype == np.complex128
+
+
+@hypothesis.settings(max_examples=50, deadline=None, derandomize=True, database=None)
+@hypothesis.given(phase=st.floats(-1e9, 1e9))
+def test_wrap_phase_is_the_phase_less_whole_turns(phase):
+    """In [−π, π], and φ less a whole number of turns to ≤ 2e-16·|φ| + 1e-15 rad (its
+    documented rounding; a carrier k₀r of the spaceborne sets is ~1e8 rad)."""
+    wrapped = float(wrap_phase(jnp.float64(phase)))
+    assert -np.pi <= wrapped <= np.pi
+    turns = (phase - wrapped) / (2 * np.pi)
+    assert abs(turns - round(turns)) * 2 * np.pi <= 2e-16 * abs(phase) + 1e-15
+    assert abs(np.exp(1j * wrapped) - np.exp(1j * np.fmod(phase, 2 * np.pi))) <= (
+        4e-16 * abs(phase) + 1e-15)
 
 
 def test_unit_phasor_float32_and_sine():

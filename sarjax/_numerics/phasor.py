@@ -92,6 +92,18 @@ def _unit_phasor_jvp(primals, tangents):
                                        jnp.result_type(float)))
 
 
+def wrap_phase(phase):
+    """φ − 2πk, the multiple k = round(φ/2π) removed: in [−π, π] [rad], float64 in,
+    float64 out (for the carrier k₀r of a slant range before a small phase is added).
+
+    ``jnp.mod(φ, 2π)`` does the same up to a whole turn, but XLA's floating-point
+    remainder is a scalar library call, about 30 ns per element on the reference machine
+    against 0.4 ns for this multiply–round–subtract; the extra rounding, ≤ 2e-16·|φ|
+    (5e-10 rad at k₀r = 2·10⁶ rad), is far below what a float64 range carries."""
+    phase = jnp.asarray(phase)
+    return phase - jnp.round(phase * (1 / (2 * np.pi))) * (2 * np.pi)
+
+
 def reduced_phasor(phase, dtype):
     """e^{jφ} of complex ``dtype`` for a float64 phase φ of any size: complex128 as
     :func:`unit_phasor`; complex64 from φ reduced to [−π, π] in float64 and the float32
@@ -99,5 +111,4 @@ def reduced_phasor(phase, dtype):
     6e-8·|φ|)."""
     if jnp.dtype(dtype) == jnp.complex128:
         return unit_phasor(phase)
-    turns = jnp.round(phase * (1 / (2 * np.pi)))
-    return unit_phasor((phase - turns * (2 * np.pi)).astype(jnp.float32))
+    return unit_phasor(wrap_phase(phase).astype(jnp.float32))

@@ -41,7 +41,7 @@ import numpy as np
 from .. import geometry
 from .._numerics.es_kernel import kernel_transform, kernel_width, spreading_kernel
 from .._numerics.interpolation import next_fast_len
-from .._numerics.phasor import reduced_phasor, unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor, wrap_phase
 from ..scene import ReflectivityGrid
 from ._base import AbstractExactSimulator, AbstractPlan, Cost
 from ._fourier_engine import chirp_spectrum
@@ -218,7 +218,7 @@ class TimeDomainNUFFT(AbstractExactSimulator):
         transfer = (chirp * deconvolve).astype(dtype)
         near = acquisition.near_range
         k0 = radar.wavenumber
-        carrier = jnp.mod(k0 * scene.range, _TWO_PI)  # k₀ r mod 2π, once per scatterer
+        carrier = wrap_phase(k0 * scene.range)  # k₀ r reduced to [−π, π], once per scatterer
         window = (n_range - 1) * dr
         half = radar.pulse_half_length
         real = jnp.finfo(dtype).dtype

@@ -54,7 +54,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import geometry
-from .._numerics.phasor import unit_phasor
+from .._numerics.phasor import unit_phasor, wrap_phase
 from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractExactSimulator, AbstractPlan, Cost
@@ -165,7 +165,7 @@ def _broadside_static_phasors(radar, pulse, targets):
     offset = geometry.range_offset(along_track, slant_range, los)  # R − r [m]
     u = (along_track - (slant_range + los) * pointing) / radar.footprint(slant_range)
     k0 = radar.wavenumber
-    phase = jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset
+    phase = wrap_phase(k0 * slant_range) + k0 * offset
     amplitude = reflectivity * radar.pattern(u) * unit_phasor(-phase)
     return offset, amplitude
 
@@ -191,8 +191,8 @@ def scatterer_phasors(radar, pulse, targets, stop_and_go=True):
     u = pattern_argument(radar, pulse[3], along, moved_range, los)
     k0 = radar.wavenumber
     # 4πρ/λ, formed from the exact decomposition ρ = r + (ρ − r) in float64 (k₀ r reduced
-    # mod 2π; unit_phasor reduces the rest)
-    phase = jnp.mod(k0 * slant_range, _TWO_PI) + k0 * offset
+    # to [−π, π]; unit_phasor reduces the rest)
+    phase = wrap_phase(k0 * slant_range) + k0 * offset
     amplitude = reflectivity * radar.pattern(u) * unit_phasor(-phase)
     return offset, amplitude
 
