@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import warnings
 
+import jax
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -39,6 +40,19 @@ METHODS = ("fourier_2d", "small_deviation", "moderate_deviation", "chirp_scaling
 # the exact model with the physics of each method (high_speed: beyond stop-and-go)
 REFERENCE = {"high_speed": dict(stop_and_go=False)}
 NMSE_LIMIT = -25.0  # dB: the fidelity every valid run must reach
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _programs_not_written_to_the_compilation_cache():
+    """Each drawn scene compiles programs of its own shapes, which no other test loads:
+    they are not written to the suite's persistent compilation cache. (jaxlib 0.10.2
+    crashed twice in this module's slow tier while serialising one of them for the
+    cache, in ``executable.serialize()``; the simulations themselves are unaffected.)"""
+    name = "jax_persistent_cache_min_compile_time_secs"
+    previous = getattr(jax.config, name)
+    jax.config.update(name, 1e9)
+    yield
+    jax.config.update(name, previous)
 
 
 def _radar(squint_deg):
