@@ -43,16 +43,20 @@ NMSE_LIMIT = -25.0  # dB: the fidelity every valid run must reach
 
 
 @pytest.fixture(autouse=True, scope="module")
-def _programs_not_written_to_the_compilation_cache():
+def _no_persistent_compilation_cache():
     """Each drawn scene compiles programs of its own shapes, which no other test loads:
-    they are not written to the suite's persistent compilation cache. (jaxlib 0.10.2
-    crashed twice in this module's slow tier while serialising one of them for the
-    cache, in ``executable.serialize()``; the simulations themselves are unaffected.)"""
-    name = "jax_persistent_cache_min_compile_time_secs"
-    previous = getattr(jax.config, name)
-    jax.config.update(name, 1e9)
+    this module runs without the suite's persistent compilation cache, neither writing
+    nor reading. (jaxlib 0.10.2 crashed three times in this module's slow tier inside the
+    cache: twice serialising one of its programs, once deserialising one; the
+    simulations themselves are unaffected.)"""
+    from jax.experimental.compilation_cache import compilation_cache
+
+    previous = jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", False)
+    compilation_cache.reset_cache()  # jax decides once per process whether to use it
     yield
-    jax.config.update(name, previous)
+    jax.config.update("jax_enable_compilation_cache", previous)
+    compilation_cache.reset_cache()
 
 
 def _radar(squint_deg):
