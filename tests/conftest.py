@@ -32,6 +32,40 @@ def _release_compiled_programs():
     _trim()
 
 
+@pytest.fixture(autouse=True)
+def _release_programs_before_the_mapping_limit():
+    """Every compiled XLA program holds memory mappings of its own (code and data), and
+    a module that compiles thousands (test_fidelity's drawn scenes: ~50 more mappings a
+    second) reached the kernel's limit per process (``vm.max_map_count``, 65 530 here):
+    XLA then crashed wherever it next mapped memory (compiling, or writing or reading
+    the persistent cache). After any test that leaves the process above half the limit,
+    its compiled programs are released."""
+    yield
+    if _mappings() > _MAPPING_LIMIT // 2:
+        jax.clear_caches()
+        gc.collect()
+        _trim()
+
+
+def _mapping_limit():
+    try:
+        return int(pathlib.Path("/proc/sys/vm/max_map_count").read_text())
+    except (OSError, ValueError):  # not Linux
+        return 0
+
+
+def _mappings():
+    """The process's memory mappings (0 where /proc is not there)."""
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            return sum(1 for _ in maps)
+    except OSError:
+        return 0
+
+
+_MAPPING_LIMIT = _mapping_limit()
+
+
 def _trim():
     """Hand the freed heap back to the system (glibc keeps it otherwise)."""
     try:

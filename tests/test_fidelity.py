@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import warnings
 
-import jax
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -40,23 +39,6 @@ METHODS = ("fourier_2d", "small_deviation", "moderate_deviation", "chirp_scaling
 # the exact model with the physics of each method (high_speed: beyond stop-and-go)
 REFERENCE = {"high_speed": dict(stop_and_go=False)}
 NMSE_LIMIT = -25.0  # dB: the fidelity every valid run must reach
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _no_persistent_compilation_cache():
-    """Each drawn scene compiles programs of its own shapes, which no other test loads:
-    this module runs without the suite's persistent compilation cache, neither writing
-    nor reading. (jaxlib 0.10.2 crashed three times in this module's slow tier inside the
-    cache: twice serialising one of its programs, once deserialising one; the
-    simulations themselves are unaffected.)"""
-    from jax.experimental.compilation_cache import compilation_cache
-
-    previous = jax.config.jax_enable_compilation_cache
-    jax.config.update("jax_enable_compilation_cache", False)
-    compilation_cache.reset_cache()  # jax decides once per process whether to use it
-    yield
-    jax.config.update("jax_enable_compilation_cache", previous)
-    compilation_cache.reset_cache()
 
 
 def _radar(squint_deg):
