@@ -27,9 +27,7 @@ def _release_compiled_programs():
     module are released (jax keeps every one otherwise: one process of the suite grew to
     6.9 GB)."""
     yield
-    jax.clear_caches()
-    gc.collect()
-    _trim()
+    _release()
 
 
 @pytest.fixture(autouse=True)
@@ -42,9 +40,14 @@ def _release_programs_before_the_mapping_limit():
     its compiled programs are released."""
     yield
     if _mappings() > _MAPPING_LIMIT // 2:
-        jax.clear_caches()
-        gc.collect()
-        _trim()
+        _release()
+
+
+def _release():
+    """Release every compiled program and hand the freed memory back."""
+    jax.clear_caches()
+    gc.collect()
+    _trim()
 
 
 def _mapping_limit():
