@@ -253,8 +253,7 @@ def _scene_lines(ctx, track, prepared, grid_2d):
         gamma, xs, hs, rs = (prepared.reflectivity[:, None], prepared.azimuth[:, None],
                              prepared.height[:, None], ranges[:, None])
     gamma = track.modulate_scene(ctx, gamma, xs, rs, hs)
-    # per-line factors: √r_j of the stationary amplitude and the carrier e^{−jk₀r_j}
-    line_factor = jnp.sqrt(ranges) * unit_phasor(-jnp.mod(ctx.k0 * ranges, _TWO_PI))
+    line_factor = engine.line_carrier(ctx.k0, ranges)
     return gamma * (line_factor[None, :] if grid_2d else line_factor[:, None])
 
 
@@ -331,18 +330,19 @@ def _band(sim, plan, ctx, motion, acquisition, n_r, block):
     sets = None
     grid_2d = gridded and track.kind != "moderate"
     gamma = _scene_lines(ctx, track, prepared, grid_2d)
-    # A(ξ, r)/√r: a per-ξ factor, with a grid's azimuth ramp
+    # the per-ξ factors: the band's mask, a grid's azimuth ramp and (applied with each
+    # pattern weight by stationary_amplitude) A(ξ, r)/√r
     work = ctx.work
     real = jnp.finfo(work).dtype
-    column_weight = engine.stationary_amplitude(radar, xi, 1.0) * ctx.keep
+    column_factor = ctx.keep
     if prepared.gridded:
-        column_weight = column_weight * engine.grid_azimuth_ramp(prepared.azimuth, ctx.x0, xi)
+        column_factor = column_factor * engine.grid_azimuth_ramp(prepared.azimuth, ctx.x0, xi)
         spectrum = None if grid_2d else engine.grid_azimuth_fft(gamma.astype(work), n_x)
     else:
         spectrum = (gamma * unit_phasor(-xi[None, :] * (prepared.azimuth[:, None] - ctx.x0))
                     ).astype(work)
     if not grid_2d:
-        sets = track.line_sets(ctx, sim, spectrum, column_weight, weights)
+        sets = track.line_sets(ctx, sim, spectrum, column_factor, weights)
     if sets is None:  # the pattern is a per-ξ factor: one set, weighted per order
         eta_set = None
         if grid_2d:
@@ -390,7 +390,8 @@ def _band(sim, plan, ctx, motion, acquisition, n_r, block):
         if sets is not None:
             terms = [(q, None, orders[q]) for q in range(n_terms)]
         else:
-            terms = [(0, (column_weight * base, column_weight * steep), orders[q])
+            terms = [(0, tuple(engine.stationary_amplitude(radar, xi, 1.0, column_factor * w)
+                               for w in (base, steep)), orders[q])
                      for q, (base, steep) in enumerate(weights[:n_terms])]
         per_alias = engine.columns_to_pulses(
             produce, terms, eta_m, per_pulse, scale_powers, k0 * ctx.cos_d**2,

@@ -42,7 +42,7 @@ from .._numerics.interpolation import (
     next_fast_len,
     periodic_rows,
 )
-from .._numerics.phasor import reduced_phasor, unit_phasor
+from .._numerics.phasor import reduced_phasor, unit_phasor, wrap_phase
 from ..scene import PointTargets, ReflectivityGrid
 
 _TWO_PI = 2 * jnp.pi
@@ -99,12 +99,32 @@ def _chirp_spectrum(b, half, eta):
     )
 
 
-def stationary_amplitude(radar, xi, slant_range):
-    """A(ξ, r) = (1/Δx) √(2π k₀² r / (k₀² − ξ²)^{3/2}) e^{−jπ/4} (azimuth POSP)."""
+def stationary_amplitude(radar, xi, slant_range, weight=1.0):
+    """``weight`` · A(ξ, r), A(ξ, r) = (1/Δx) √(2π k₀² r / (k₀² − ξ²)^{3/2}) e^{−jπ/4}
+    (azimuth POSP).
+
+    Formed as ``(weight k₀ √(2πr) e^{−jπ/4} / Δx) / (k₀² − ξ²)^{3/4}``, a division last:
+    XLA on the CPU counts a division as costly and forms the product once; ending in a
+    multiply, the product (with the phasor and pattern series of ``weight``, all
+    multiply–adds) was fused into every consumer that broadcasts it and formed again for
+    each of its elements (B's zeroth-order set: once per line and ξ, 2.9 ms of 175 on one
+    core)."""
     k0 = radar.wavenumber
     kz2 = k0**2 - xi**2
-    mag = jnp.sqrt(2 * jnp.pi * k0**2 * slant_range / kz2**1.5) / radar.azimuth_spacing
-    return mag * unit_phasor(-jnp.pi / 4)
+    scale = k0 * jnp.sqrt(2 * jnp.pi * slant_range) / radar.azimuth_spacing
+    return (weight * scale * unit_phasor(-jnp.pi / 4)) / kz2**0.75
+
+
+def line_carrier(wavenumber, ranges):
+    """(n_lines,) √r_j e^{−jk₀r_j} of range lines at slant ranges r_j [m] (the √r of the
+    stationary amplitude and the carrier), complex128, the phase reduced in float64.
+
+    Formed as e^{−jk₀r_j} / r_j^{−1/2}, a division last: XLA on the CPU counts a division
+    as costly and forms the vector once; ending in a multiply, it was fused into the
+    products that broadcast it over the lines' cells and its phasor series formed again in
+    every cell (972 × 416 grid, one core: 5.6 → 1.9 ms for that product and its padded
+    copy)."""
+    return unit_phasor(-wrap_phase(wavenumber * ranges)) / jax.lax.rsqrt(ranges)
 
 
 def stationary_pattern_argument(radar, xi):

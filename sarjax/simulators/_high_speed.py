@@ -255,7 +255,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
             if gridded:
                 # e^{−jξ_d (x_i − x0)} first: the FFT then supplies the offsets from ξ_d
                 ranges = scene.range
-                line_factor = jnp.sqrt(ranges) * unit_phasor(-jnp.mod(k0 * ranges, _TWO_PI))
+                line_factor = engine.line_carrier(k0, ranges)
                 values = (scene.reflectivity * unit_phasor(-xi_c * (scene.azimuth - x0))[:, None]
                           * line_factor[None, :]).T  # (n_lines, n_az)
                 # ξ + 2πm/Δx on a grid aligned with the pulses: a phase e^{−j2πm·offset}
@@ -265,8 +265,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
             else:
                 idx = jnp.asarray(index)
                 ranges = scene.range[idx]
-                weight = scene.reflectivity[idx] * jnp.sqrt(ranges) * unit_phasor(
-                    -jnp.mod(k0 * ranges, _TWO_PI))
+                weight = scene.reflectivity[idx] * engine.line_carrier(k0, ranges)
                 groups.append((v_r, v_a, weight, ranges, scene.azimuth[idx]))
 
         # with alias bands, the lowest bin of the covered ξ range (its partner at the top

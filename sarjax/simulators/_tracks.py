@@ -86,9 +86,10 @@ class AbstractTrack(eqx.Module):
         """The scene as the engine synthesises it (default: unchanged)."""
         return gamma
 
-    def line_sets(self, ctx, sim, spectrum, column_weight, weights):
+    def line_sets(self, ctx, sim, spectrum, column_factor, weights):
         """(line sets, η-weighted set) when the pattern precedes the motion phase; None
-        when the pattern is a per-ξ factor of one synthesised set (default)."""
+        when the pattern is a per-ξ factor of one synthesised set (default).
+        ``column_factor``: the per-ξ factors other than A(ξ, r)/√r and the pattern's."""
         return None
 
     def pointing_order(self, sim) -> int:
@@ -356,7 +357,7 @@ class ModerateDeviationTrack(AbstractTrack):
         return (spread + migration * jnp.fft.fft(along * slope, axis=1)
                 + curvature * jnp.fft.fft(along * slope**2, axis=1))
 
-    def line_sets(self, ctx, sim, spectrum, column_weight, weights):
+    def line_sets(self, ctx, sim, spectrum, column_factor, weights):
         # per pointing order (the pattern precedes the motion phase), and the set the
         # synthesis multiplies by η: the pattern's η-slope, −j × the envelope lines of
         # the zeroth order's set; in the spectrum's precision (the per-ξ weights cast to
@@ -365,8 +366,9 @@ class ModerateDeviationTrack(AbstractTrack):
         # weights' and the factors' formation (the pattern's derivatives, the phasors)
         # into each set's products and formed them once per (line, ξ) sample and set.
         work = spectrum.dtype
-        stacked = jnp.stack([(column_weight * w).astype(work)
-                             for w in [w for w, _ in weights] + [weights[0][1]]])
+        stacked = jnp.stack([
+            engine.stationary_amplitude(ctx.radar, ctx.xi, 1.0, column_factor * w).astype(work)
+            for w in [w for w, _ in weights] + [weights[0][1]]])
         factors = self._factors(ctx, sim, work)
 
         def one_set(_, weight):
