@@ -45,7 +45,9 @@ def _sin_cos(phase):
     r2 = r * r
     sin_r = r * _horner(_SIN, r2)
     cos_r = _horner(_COS, r2)
-    quadrant = jnp.mod(n, 4.0)  # 0, 1, 2, 3 (n is an integer-valued float)
+    # 0, 1, 2, 3: n − 4⌊n/4⌋, exact for the integer-valued float n (|n| < 2²⁴ in float32);
+    # jnp.mod's remainder and sign fix-up cost 10–15 % more of the whole phasor
+    quadrant = n - 4.0 * jnp.floor(n * 0.25)
     swap = (quadrant == 1.0) | (quadrant == 3.0)
     sin_q = jnp.where(swap, cos_r, sin_r)
     cos_q = jnp.where(swap, sin_r, cos_r)

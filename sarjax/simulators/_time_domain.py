@@ -59,7 +59,6 @@ from ..constants import SPEED_OF_LIGHT
 from ..scene import ReflectivityGrid
 from ._base import AbstractExactSimulator, AbstractPlan, Cost
 
-_TWO_PI = 2 * jnp.pi
 NON_STOP_AND_GO_ITERATIONS = 3
 _LOOPED_SCATTERERS = 32  # scatterers (per chunk) summed by a loop (16–48: same cost as the product)
 
@@ -274,7 +273,7 @@ def pulse_blocks(radar, pulse, targets, near_range, blocks, dtype, stop_and_go=T
     real = jnp.finfo(dtype).dtype
     if real != jnp.float64:
         # reduced to [−π, π] in float64, then the phasor in the kernel's precision
-        phases = phases - _TWO_PI * jnp.round(phases / _TWO_PI)
+        phases = wrap_phase(phases)
     tables = unit_phasor(-phases.astype(real))
     outer = amplitude[:, None].astype(dtype) * tables[:, :n_hi]
     inner = tables[:, n_hi:]
