@@ -7,7 +7,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sarjax._numerics.phasor import reduced_phasor, sine, unit_phasor, wrap_phase
+from sarjax._numerics.phasor import (
+    broadcast_phasor,
+    reduced_phasor,
+    sine,
+    unit_phasor,
+    wrap_phase,
+)
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e3, 1e6, 1e9])
@@ -71,3 +77,27 @@ def test_reduced_phasor_float32_error_does_not_grow_with_the_phase(scale, seed):
     # complex128: the unreduced float64 phasor, unchanged
     np.testing.assert_array_equal(np.asarray(reduced_phasor(jnp.asarray(phase), jnp.complex128)),
                                   np.asarray(unit_phasor(jnp.asarray(phase))))
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_broadcast_phasor_is_the_phasor_and_its_derivative(dtype):
+    """1 / e^{−jφ} equals e^{jφ} to the phasor's bound plus one rounding of the division
+    (2⁻⁵³ / 2⁻²⁴ relative), also inside a jitted product that broadcasts it (the form it
+    exists for); its derivative is j e^{jφ} (autodiff through the division)."""
+    rng = np.random.default_rng(2)
+    phase = rng.uniform(-1e3, 1e3, 4096).astype(dtype)
+    exact = np.exp(1j * phase.astype(np.float64))
+    bound = (2e-16 + 2e-16 * 1e3 + 3e-16) if dtype == np.float64 else (1e-6 + 1.2e-7 * 1e3
+                                                                         + 1.2e-7)
+    got = np.asarray(broadcast_phasor(jnp.asarray(phase)))
+    assert got.dtype == (np.complex128 if dtype == np.float64 else np.complex64)
+    assert np.max(np.abs(got - exact)) <= bound
+    rows = jnp.asarray(rng.normal(size=(7, phase.size)).astype(dtype))
+    product = np.asarray(jax.jit(lambda a, p: a * broadcast_phasor(p)[None, :])(
+        rows, jnp.asarray(phase)))
+    assert np.max(np.abs(product - np.asarray(rows) * exact[None, :])) <= 5 * bound
+    small = jnp.linspace(-20.0, 20.0, 101)
+    tangent = jax.jvp(broadcast_phasor, (small,), (jnp.ones_like(small),))[1]
+    np.testing.assert_allclose(np.asarray(tangent), 1j * np.exp(1j * np.asarray(small)),
+                               atol=1e-14)
+

@@ -114,3 +114,18 @@ def reduced_phasor(phase, dtype):
     if jnp.dtype(dtype) == jnp.complex128:
         return unit_phasor(phase)
     return unit_phasor(wrap_phase(phase).astype(jnp.float32))
+
+
+def broadcast_phasor(phase):
+    """e^{jφ} of a vector φ that a product broadcasts over a larger array (one factor per
+    row or per column), formed as 1 / e^{−jφ}.
+
+    XLA on the CPU copies elementwise multiply–adds into every consumer that broadcasts
+    them: the phasor's series (or XLA's own sine and cosine, multiply–adds too by then)
+    was formed again for every element of the product. A division it counts as costly
+    and does not copy, so with one last the vector is formed once: a 972 × 864
+    complex128 array times a row and a column phasor, then an FFT, one core, 11.4 →
+    3.3 ms. The division adds one rounding (relative 2⁻⁵³ in complex128, 2⁻²⁴ in
+    complex64)."""
+    return 1 / unit_phasor(-jnp.asarray(phase))
+

@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 
 from .._numerics.interpolation import next_fast_len, sinc_interpolate
+from .._numerics.phasor import broadcast_phasor
 
 
 def omega_k(
@@ -52,8 +53,9 @@ def omega_k(
     d_eta = 2 * jnp.pi / (n_r * dr)
 
     spec = jnp.fft.fftshift(jnp.fft.fft(compressed, n=n_r, axis=-1), axes=-1)
-    spec = spec * jnp.exp(-1j * eta * (near - r_ref))[None, :]
-    spec = jnp.fft.fft(spec, n=n_x, axis=0) * jnp.exp(-1j * xi * (x0 - x_c))[:, None]
+    # per-axis phasors formed once (broadcast_phasor), not once per element
+    spec = spec * broadcast_phasor(-eta * (near - r_ref))[None, :]
+    spec = jnp.fft.fft(spec, n=n_x, axis=0) * broadcast_phasor(-xi * (x0 - x_c))[:, None]
 
     # reference-function multiply (RFM) exp[j(√(η̄² − ξ²) − η) r₀], written as
     # (√(η̄² − ξ²) − η̄) r₀ + k₀ r₀ with the small first term in closed form
@@ -63,8 +65,9 @@ def omega_k(
     spec = spec * jnp.exp(1j * (-xi2 / (kz + eta_bar) * r_ref + jnp.mod(k0 * r_ref, 2 * jnp.pi)))
     if equalize_pattern:
         u_star = -xi * radar.antenna_length / (radar.wavelength * jnp.sqrt(k0**2 - xi**2))
-        gain = jnp.maximum(radar.pattern(u_star), pattern_floor)
-        spec = spec / gain[:, None]
+        # 1/W² per row formed once: a division last is not copied into the product
+        inverse_gain = 1 / jnp.maximum(radar.pattern(u_star), pattern_floor)
+        spec = spec * inverse_gain[:, None]
     # materialise before the gathers (else XLA recomputes the RFM once per tap)
     spec = jax.lax.optimization_barrier(spec)
 
@@ -82,10 +85,10 @@ def omega_k(
     stolt = jax.lax.map(stolt_rows, (spec_p, xi_p)).reshape(n_chunks * chunk, n_r)[:n_x]
 
     # back to (x, r): phase references so that output sample (i, j) is at (x'_i, r'_j)
-    stolt = stolt * jnp.exp(1j * eta * (near - r_ref))[None, :] * jnp.exp(
+    stolt = stolt * broadcast_phasor(eta * (near - r_ref))[None, :] * jnp.exp(
         -1j * jnp.mod(k0 * r_ref, 2 * jnp.pi)
     )
-    stolt = stolt * jnp.exp(1j * xi * (x0 - x_c))[:, None]
+    stolt = stolt * broadcast_phasor(xi * (x0 - x_c))[:, None]
     image = jnp.fft.ifft(stolt, axis=0)[:n_az]
     image = jnp.fft.ifft(jnp.fft.ifftshift(image, axes=-1), axis=-1)[:, :n_rg]
     # exp(+jπ/4) undoes the stationary-phase constant of the azimuth transform, so a
