@@ -47,6 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics.interpolation import next_fast_len
+from .._numerics.phasor import broadcast_phasor, unit_phasor, wrap_phase
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
@@ -167,13 +168,13 @@ class ChirpScaling(AbstractStraightTrackSimulator):
             # at every range alias η + 2πm/Δr (the sampled chirp's spectrum passes ±f_s/2)
             if isinstance(scene, ReflectivityGrid):
                 first = (scene.azimuth[0] - x0) / dx
-                spec = grid_spectrum * jnp.exp(-1j * xi * first * dx)[:, None]
+                spec = grid_spectrum * broadcast_phasor(-xi * first * dx)[:, None]
                 lines = spec * _azimuth_terms(radar, xi, d, curv, b_m, scene.range, r_ref)
                 # lines on the raw range grid from r_first: a range FFT (circular, padded),
                 # the same for every alias; the sub-sample shift per alias
                 line_spectrum = jnp.fft.fft(lines, n=n_r, axis=1)
                 shift = scene.range[0] - near
-                spectra = [line_spectrum * jnp.exp(-1j * eta_m * shift)[None, :]
+                spectra = [line_spectrum * broadcast_phasor(-eta_m * shift)[None, :]
                            for eta_m in etas]
             else:
                 phase_x = xi[:, None] * (scene.azimuth - x0)[None, :]
@@ -185,7 +186,9 @@ class ChirpScaling(AbstractStraightTrackSimulator):
             b = radar.chirp_rate
             sampled = 0.0
             for eta_m, spectrum in zip(etas, spectra, strict=True):
-                chirp = engine.chirp_spectrum(radar, eta_m) * jnp.exp(-1j * eta_m**2 / (4 * b)) / dr
+                # e^{−jη²/4b}/Δr as a division last: formed once per η, not per (ξ, η)
+                chirp = engine.chirp_spectrum(radar, eta_m) / (
+                    dr * unit_phasor(eta_m**2 / (4 * b)))
                 phi3 = jnp.exp(-1j * eta_m[None, :] * (curv * r_ref)[:, None]
                                + 1j * eta_m[None, :] ** 2 / (4 * (b_m * (1 + curv))[:, None]))
                 sampled = sampled + spectrum * phi3 * chirp[None, :]
@@ -204,7 +207,7 @@ def _azimuth_terms(radar, xi, d, curv, b_m, ranges, r_ref):
     """(n_x, n_lines) Φ₂⁻¹ W²(u*) A(ξ, r): azimuth phase, residual scaling phase,
     pattern and stationary-phase amplitude."""
     k0 = radar.wavenumber
-    carrier = jnp.exp(-1j * jnp.mod(k0 * ranges, _TWO_PI))[None, :]
+    carrier = broadcast_phasor(-wrap_phase(k0 * ranges))[None, :]
     azimuth = jnp.exp(-1j * k0 * (d - 1)[:, None] * ranges[None, :])
     residual = jnp.exp(-1j * (b_m * curv * (1 + curv))[:, None]
                        * (ranges - r_ref)[None, :] ** 2)
