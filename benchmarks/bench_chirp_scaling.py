@@ -115,7 +115,7 @@ def main(argv=None):
         "With L = 1 m the Doppler band 2v/L = 1710 Hz exceeds the PRF: an echo's main-band "
         "response spans 31 km along track (±15.5 km, until its Doppler leaves the PRF "
         "band), 36× the 850 m scene, so the default padding "
-        "(no circular wrap) works on a 45 000-pulse grid. The seed's listing pads nothing "
+        f"(no circular wrap) works on a {shape[0]}-pulse grid. The seed's listing pads nothing "
         "(its 1171-echo azimuth FFT is circular): `azimuth_padding=0` is that setup.",
         "",
         f"Target ≤ 1 s steady: seed's circular setup {'met' if circular <= 1.0 else 'NOT met'} "
