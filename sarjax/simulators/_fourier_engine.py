@@ -103,12 +103,11 @@ def stationary_amplitude(radar, xi, slant_range, weight=1.0):
     """``weight`` · A(ξ, r), A(ξ, r) = (1/Δx) √(2π k₀² r / (k₀² − ξ²)^{3/2}) e^{−jπ/4}
     (azimuth POSP).
 
-    Formed as ``(weight k₀ √(2πr) e^{−jπ/4} / Δx) / (k₀² − ξ²)^{3/4}``, a division last:
-    XLA on the CPU counts a division as costly and forms the product once; ending in a
-    multiply, the product (with the phasor and pattern series of ``weight``, all
-    multiply–adds) was fused into every consumer that broadcasts it and formed again for
-    each of its elements (B's zeroth-order set: once per line and ξ, 2.9 ms of 175 on one
-    core)."""
+    Formed as ``(weight k₀ √(2πr) e^{−jπ/4} / Δx) / (k₀² − ξ²)^{3/4}``, a division last,
+    so that XLA forms it once (``_numerics.phasor.broadcast_phasor`` says why): ending in a
+    multiply, it and the phasor and pattern series of ``weight`` were formed again for
+    every element of the products that broadcast it (B's zeroth-order set: once per line
+    and ξ, 2.9 ms of 175 on one core)."""
     k0 = radar.wavenumber
     kz2 = k0**2 - xi**2
     scale = k0 * jnp.sqrt(2 * jnp.pi * slant_range) / radar.azimuth_spacing
@@ -119,11 +118,10 @@ def line_carrier(wavenumber, ranges):
     """(n_lines,) √r_j e^{−jk₀r_j} of range lines at slant ranges r_j [m] (the √r of the
     stationary amplitude and the carrier), complex128, the phase reduced in float64.
 
-    Formed as e^{−jk₀r_j} / r_j^{−1/2}, a division last: XLA on the CPU counts a division
-    as costly and forms the vector once; ending in a multiply, it was fused into the
-    products that broadcast it over the lines' cells and its phasor series formed again in
-    every cell (972 × 416 grid, one core: 5.6 → 1.9 ms for that product and its padded
-    copy)."""
+    Formed as e^{−jk₀r_j} / r_j^{−1/2}, a division last, so that XLA forms it once
+    (``_numerics.phasor.broadcast_phasor``): ending in a multiply, its phasor series was
+    formed again in every cell of the products that broadcast it (972 × 416 grid, one
+    core: 5.6 → 1.9 ms for that product and its padded copy)."""
     return unit_phasor(-wrap_phase(wavenumber * ranges)) / jax.lax.rsqrt(ranges)
 
 
