@@ -321,9 +321,9 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             (within ``agreement_tolerance`` in every range block), of those the one whose
             image windows about the dominant scatterers of every run's image are sharpest,
             and :attr:`AutofocusResult.agreement` is its largest difference from another.
-            An estimate stuck in a wrong optimum of the
-            objective depends on where it started; a converged one does not. Measured on
-            the benchmark's draws 100–119: with two restarts (default) all 5 draws whose
+            An estimate stuck in a wrong optimum of the objective depends on where it
+            started; a converged one does not. Measured on the benchmark's draws 100–119
+            (sharpness alone choosing): with two restarts (default) all 5 draws whose
             first estimate failed (0.6–2.8 rad from the truth) were flagged (0.15–3.9 rad
             apart), and 2 of the 15 whose first estimate converged (≤ 0.35 rad), where one
             restart went elsewhere (the kept estimates 0.09 and 0.10 rad from the truth);
@@ -331,9 +331,10 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             failures were flagged (both starts of draw 116 ended 0.8 rad off, 0.07 rad
             apart) and none of the 15. It tests uniqueness, not accuracy: an error every
             start shares passes. The sharpest windows alone (the rule before agreement
-            came first) kept a wrong estimate where others converged: draw 109 with seven
-            restarts kept the worst of eight (2.2 / 4.1 / 5.3 rad per block) while four
-            agreed within 0.01 rad at 0.07 / 0.10 / 0.14 rad from the truth.
+            came first) kept a wrong estimate where others converged: on draw 109 with
+            seven restarts four starts agreed within 0.015–0.044 rad at 0.07 / 0.10 /
+            0.15 rad from the truth, and the sharpest windows were a stray's (0.57 / 0.97 /
+            1.50 rad; in another process the worst of eight, 2.2 / 4.1 / 5.3 rad).
         restart_rms: rms [m] of the restarts' deviation; None (default): that of the
             first estimate (Δy, Δz without their trend), at least 1 rad of line-of-sight
             phase (1/k₀). A fixed 2 cm flagged all five failures above but also a
@@ -597,11 +598,12 @@ def _consensus(differences, values, tolerance):
 
     An estimate stuck in a wrong optimum depends on where it started; converged ones agree.
     The sharpness of the starts' windows alone kept a wrong one: on the benchmark's draw
-    109 with seven restarts four starts ended 0.07–0.10 rad from the truth within 0.01 rad
-    of each other, three ended 1.8–2.2 rad away, and the sharpest windows were those of
-    the worst (2.2 / 4.1 / 5.3 rad). Several starts can share a wrong optimum (draw 103:
-    five of eight within 0.1 rad, all ≥ 0.68 rad from the truth), so agreement is not
-    accuracy and any disagreement is still reported."""
+    109 with seven restarts four starts ended within 0.015–0.044 rad of each other, at
+    0.07 / 0.10 / 0.15 rad from the truth, four elsewhere, and the sharpest windows were
+    those of a stray (0.57 / 0.97 / 1.50 rad). Several starts can share a wrong optimum
+    (draw 103: three of eight within 0.08 rad of each other, all ≥ 0.70 / 1.29 / 1.94 rad
+    from the truth), so agreement is not accuracy and any disagreement is still
+    reported."""
     close = np.max(np.asarray(differences), axis=-1) <= tolerance
     support = np.sum(close | np.eye(close.shape[0], dtype=bool), axis=1)
     order = sorted(range(len(values)), key=lambda i: (-support[i], values[i]))
