@@ -128,6 +128,7 @@ def test_no_harm_without_motion_error(radar):
         warnings.simplefilter("error", sj.inverse.AutofocusWarning)
         result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
     assert result.agreement.shape == (3,) and np.all(result.agreement <= 0.1), result.agreement
+    assert result.agreeing == 3
     blocks = af.range_blocks(radar, raw.range)
     residual = af.residual_phase_rms(radar, result, sj.Motion(horizontal=np.zeros(NUM_PULSES)),
                                      blocks)
@@ -146,7 +147,7 @@ def test_started_at_the_true_track_it_stays_there(radar):
     blocks = af.range_blocks(radar, raw.range)
     result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False,
                                   initial=truth, restarts=0)
-    assert result.agreement is None
+    assert result.agreement is None and result.agreeing is None
     assert np.all(af.residual_phase_rms(radar, af.no_estimate(raw), truth, blocks) > 1.0)
     residual = af.residual_phase_rms(radar, result, truth, blocks)
     assert np.all(residual <= 0.1), residual
@@ -240,9 +241,11 @@ def test_starts_that_disagree_are_reported(radar):
     raw = _noisy(radar, _scene(radar, 6), truth, 6)
     blocks = af.range_blocks(radar, raw.range)
     options = dict(max_steps=20, estimate_pointing=False, restart_rms=0.3)
-    with pytest.warns(sj.inverse.AutofocusWarning, match="starts differ"):
+    with pytest.warns(sj.inverse.AutofocusWarning,
+                      match="starts differ.*[01] of the other 2 agree with the estimate kept"):
         result = sj.inverse.autofocus(radar, raw, **options)
     assert np.max(result.agreement) > 1.0, result.agreement
+    assert result.agreeing in (1, 2)  # the kept one at least; not all: they disagree
     assert result.history[-1][0] == "start 0 of 3 kept"
     assert np.all(af.residual_phase_rms(radar, result, truth, blocks) <= 0.1)
     assert result.attributes()["autofocus_agreement_rad"] == list(result.agreement)
@@ -322,7 +325,7 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
                             str(tmp_path / "image.nc"), "--max-steps", "5"])
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert "3 starts agree within" in out, out
+    assert "of 3 starts agree with the estimate kept" in out, out
     stored = io.load(tmp_path / "image.nc")
     motion = sj.Motion(horizontal=stored.motion.horizontal, vertical=stored.motion.vertical)
     assert np.std(np.asarray(motion.horizontal)) > 0
@@ -331,6 +334,7 @@ def test_cli_autofocus_writes_the_refocused_image(radar, tmp_path, capsys):
                                rtol=1e-6, atol=1e-9 * float(np.abs(direct.data).max()))
     assert stored.attrs["autofocus_method"] == "model"
     assert len(json.loads(stored.attrs["autofocus_agreement_rad"])) == 3  # JSON attribute
+    assert 1 <= int(stored.attrs["autofocus_agreeing_starts"]) <= 3
 
 
 # ---- full size (slow): the acceptance setup of issue 18 -----------------------------------

@@ -222,7 +222,8 @@ def autofocus(raw_file, out, objective, max_steps, restarts, force):
     io.save(out, result.image, radar=run.radar, motion=result.motion,
             attrs={"source": str(raw_file), **result.attributes()}, overwrite=force)
     agreement = ("" if result.agreement is None else
-                 f"; {restarts + 1} starts agree within {float(max(result.agreement)):.3g} rad")
+                 f"; {result.agreeing} of {restarts + 1} starts agree with the estimate kept, "
+                 f"the largest difference {float(max(result.agreement)):.3g} rad")
     click.echo(f"wrote {out}: image {result.image.shape[0]} × {result.image.shape[1]} "
                f"(autofocus, {result.timings['total']:.1f} s{agreement})")
 

@@ -83,6 +83,10 @@ class AutofocusResult:
             [rad] between the estimate kept and the estimate of any other start, as
             :func:`residual_phase_rms` (aperture-detrended line-of-sight phase) per range
             block of :func:`range_blocks`; None without restarts.
+        agreeing: for :func:`autofocus` with restarts: how many starts, the kept one
+            included, ended within ``agreement_tolerance`` of the estimate kept in every
+            range block (all of them: no warning); None without restarts. Agreement is
+            not accuracy: several starts can share a wrong optimum.
     """
 
     motion: Motion
@@ -95,6 +99,7 @@ class AutofocusResult:
     fixed: tuple
     coverage: np.ndarray
     agreement: np.ndarray | None = None
+    agreeing: int | None = None
 
     def attributes(self) -> dict:
         """Plain attributes of the estimate for a file: method, objective, stages, times."""
@@ -107,6 +112,8 @@ class AutofocusResult:
             "autofocus_seconds": float(self.timings.get("total", float("nan"))),
             **({} if self.agreement is None else
                {"autofocus_agreement_rad": [float(v) for v in self.agreement]}),
+            **({} if self.agreeing is None else
+               {"autofocus_agreeing_starts": int(self.agreeing)}),
         }
 
     def line_of_sight_phase(self, radar, ranges):
@@ -426,7 +433,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             timings[stage] = timings.get(stage, 0.0) + runs[-1].timings[stage]
 
     t0 = time.perf_counter()
-    kept, agreement = 0, None
+    kept, agreement, support = 0, None, None
     if len(runs) > 1:
         kept, agreement, support = _choose(radar, raw, focuser, profiles, settings,
                                            agreement_tolerance)
@@ -471,6 +478,7 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         motion=motion, phase_history=None, image=image, method="model", objective=objective,
         history=history, timings=timings, fixed=fixed,
         coverage=run.coverage / max(run.coverage.max(), 1e-300), agreement=agreement,
+        agreeing=support,
     )
 
 
