@@ -100,4 +100,3 @@ def test_broadcast_phasor_is_the_phasor_and_its_derivative(dtype):
     tangent = jax.jvp(broadcast_phasor, (small,), (jnp.ones_like(small),))[1]
     np.testing.assert_allclose(np.asarray(tangent), 1j * np.exp(1j * np.asarray(small)),
                                atol=1e-14)
-

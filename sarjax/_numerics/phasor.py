@@ -128,4 +128,3 @@ def broadcast_phasor(phase):
     3.3 ms. The division adds one rounding (relative 2⁻⁵³ in complex128, 2⁻²⁴ in
     complex64)."""
     return 1 / unit_phasor(-jnp.asarray(phase))
-

@@ -47,7 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._numerics.interpolation import next_fast_len
-from .._numerics.phasor import broadcast_phasor, unit_phasor, wrap_phase
+from .._numerics.phasor import broadcast_phasor, wrap_phase
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
@@ -186,9 +186,9 @@ class ChirpScaling(AbstractStraightTrackSimulator):
             b = radar.chirp_rate
             sampled = 0.0
             for eta_m, spectrum in zip(etas, spectra, strict=True):
-                # e^{−jη²/4b}/Δr as a division last: formed once per η, not per (ξ, η)
-                chirp = engine.chirp_spectrum(radar, eta_m) / (
-                    dr * unit_phasor(eta_m**2 / (4 * b)))
+                # e^{−jη²/4b}/Δr formed once per η, not per (ξ, η): broadcast_phasor
+                chirp = engine.chirp_spectrum(radar, eta_m) * broadcast_phasor(
+                    -eta_m**2 / (4 * b)) / dr
                 phi3 = jnp.exp(-1j * eta_m[None, :] * (curv * r_ref)[:, None]
                                + 1j * eta_m[None, :] ** 2 / (4 * (b_m * (1 + curv))[:, None]))
                 sampled = sampled + spectrum * phi3 * chirp[None, :]
