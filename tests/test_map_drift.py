@@ -1,0 +1,95 @@
+"""Multi-look map drift, the first stage of ``sarjax.inverse.autofocus``
+(``sarjax/inverse/_map_drift.py``): the displacement of one look against another, and the
+motion it implies."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_autofocus import _motion, _noisy, _radar, _scene
+
+import sarjax as sj
+from sarjax.inverse import _autofocus as af
+from sarjax.inverse import _map_drift as md
+from sarjax.inverse._sharpness import make_focuser
+
+
+@given(shift=st.floats(-6.0, 6.0), seed=st.integers(0, 2**32 - 1),
+       separation=st.integers(1, 3))
+@settings(max_examples=25, deadline=None, derandomize=True, database=None)
+def test_look_displacement_recovers_a_known_shift(shift, seed, separation):
+    """Looks that are one random backscatter map (smooth fields times speckle), each
+    displaced by ``l × shift`` samples (band-limited, by a Fourier shift), give the relative
+    displacement ``separation × shift``: to 0.25 samples in the better-correlated half of
+    the tiles (the parabolic peak on a speckled field), to 1 sample in every tile (a tile
+    whose fields barely change has a flat peak: the increment keeps only the best
+    quarter); the normalised peaks are ≤ 1."""
+    rng = np.random.default_rng(seed)
+    length, rows, looks = 512, 24, 4
+    fields = np.repeat(rng.uniform(0.3, 3.0, (rows, length // 32)), 32, axis=1)
+    spectrum_axis = np.fft.fftfreq(length)
+    lowpass = np.exp(-(spectrum_axis / 0.2) ** 2)
+    base = np.fft.ifft(np.fft.fft(fields, axis=-1) * lowpass, axis=-1).real
+
+    def shifted(d):
+        return np.fft.ifft(np.fft.fft(base, axis=-1)
+                           * np.exp(-2j * np.pi * spectrum_axis * d), axis=-1).real
+
+    speckle = rng.exponential(size=(looks, rows, length)) ** 0.05  # mild, independent
+    amplitudes = np.stack([shifted(ell * shift) for ell in range(looks)]) * speckle
+    found, peaks, starts = md.look_displacements(amplitudes, [(0, rows)], segment=96,
+                                                 max_lag=24, separation=separation)
+    assert found.shape == (1, starts.size, looks - separation)
+    assert np.all(peaks <= 1 + 1e-9)
+    clear = peaks >= np.median(peaks)  # what map_drift_increment keeps is the best quarter
+    np.testing.assert_allclose(found[clear], separation * shift, atol=0.25, rtol=0.1)
+    np.testing.assert_allclose(found, separation * shift, atol=1.0, rtol=0.1)
+
+
+@settings(max_examples=2, deadline=None, derandomize=True, database=None)
+@given(seed=st.integers(0, 50), rms=st.sampled_from([0.004, 0.008]))
+def test_map_drift_steps_reduce_the_phase_error(seed, rms):
+    """Drawn point scenes of the CI radar, smooth Δy, Δz of 4–8 mm rms (0.5–3 rad of
+    line-of-sight phase), SNR 20 dB: four map-drift steps from the straight track leave at
+    most 0.9 of the aperture-detrended error in every range block, each step no worse
+    than the last (+0.02 rad). Measured on seeds 0–12: 0.53–0.79 of it left after four
+    steps, every step smaller (the ridge damps each step on a scene this small)."""
+    radar = _radar()
+    truth = _motion(radar, rms, seed)
+    raw = _noisy(radar, _scene(radar, seed), truth, seed)
+    focuser = make_focuser(radar, raw)
+    x = np.asarray(raw.azimuth)
+    design = np.asarray(af._default_model(radar, x).horizontal.bind(x).design(jnp.asarray(x)))
+    derivative = np.gradient(design, float(radar.azimuth_spacing), axis=0)
+    blocks = af.range_blocks(radar, raw.range)
+
+    def residual(c_y, c_z):
+        estimate = sj.Motion(horizontal=design @ c_y, vertical=design @ c_z)
+        return af._block_phase_rms(
+            radar, lambda r: (af.true_line_of_sight_phase(radar, truth, r)
+                              - af.true_line_of_sight_phase(radar, estimate, r)),
+            x.size, blocks)
+
+    c_y = c_z = np.zeros(design.shape[1])
+    start = last = residual(c_y, c_z)
+    for _ in range(4):
+        phase = af._los_phase(focuser, jnp.asarray(design @ c_y), jnp.asarray(design @ c_z))
+        step, used = md.map_drift_increment(focuser, phase, (derivative, derivative))
+        assert step is not None and used > 2 * design.shape[1], used
+        c_y, c_z = c_y + step[0], c_z + step[1]
+        now = residual(c_y, c_z)
+        assert np.all(now <= last + 0.02), (now, last)
+        last = now
+    assert np.all(last <= 0.9 * start), (last, start)
+
+
+def test_bad_inputs_name_the_value():
+    radar = _radar()
+    raw = _noisy(radar, _scene(radar, 4), sj.Motion(), 4)
+    with pytest.raises(ValueError, match="map_drift=-1"):
+        sj.inverse.autofocus(radar, raw, map_drift=-1)
+    with pytest.raises(ValueError, match="looks=2"):
+        sj.inverse.autofocus(radar, raw, looks=2)
