@@ -3,9 +3,10 @@ scene.
 
 :func:`autofocus` estimates Δy(x'), Δz(x') (cubic B-splines) by
 
-0. multi-look map drift (:mod:`sarjax.inverse._map_drift`): the relative displacements of
-   looks across the Doppler band, measured on the backscatter's structure and solved for
-   the deviation (coarse: it brings errors of tens of radians to about one);
+0. optionally (``map_drift``), multi-look map drift (:mod:`sarjax.inverse._map_drift`): the
+   relative displacements of looks across the Doppler band, measured on the backscatter's
+   structure and solved for the deviation (coarse: it brings errors of tens of radians to
+   about one);
 1. a range-dependent phase-gradient stage (:mod:`sarjax.inverse._pga`): the pulse-to-pulse
    phase products of the dominant scatterers, fitted by the line-of-sight model
    ``k₀ δr_xr ≈ k₀ (−Δy sin ϑ(r) + Δz cos ϑ(r))`` with a shrinking window (coarse to fine);
@@ -267,12 +268,12 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
               initial: Motion | None = None,
               gradient_targets: int = 12, restarts: int = 2,
               restart_rms: float | None = None,
-              agreement_tolerance: float = 0.1, map_drift: int = 8, looks: int = 16,
+              agreement_tolerance: float = 0.1, map_drift: int = 0, looks: int = 16,
               strict: bool = False) -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
-    Stages (module docstring): map drift of the looks (``map_drift`` iterations), then
-    range-dependent phase gradients of the dominant scatterers (one iteration per entry
+    Stages (module docstring): map drift of the looks (``map_drift`` iterations, none by
+    default), then range-dependent phase gradients of the dominant scatterers (one iteration per entry
     of ``windows``), then L-BFGS on the sharpness of the windows about them through the
     exact line-of-sight deviation, then the pointing error from the
     Doppler centroid. The image is focused by :func:`sarjax.focus` (ω-k with second-order
@@ -356,17 +357,18 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             above it an :class:`AutofocusWarning` (``strict``: a ValueError) says the
             estimate is not unique.
         map_drift: iterations of the map-drift stage that runs first from every start
-            (0: none): the displacements of ``looks`` looks of the backscatter's
-            structure (:mod:`sarjax.inverse._map_drift`), solved for an increment of Δy
-            and Δz; a step is kept only when it sharpens the windows about the dominant
-            scatterers, and the stage stops at the first that does not. It widens the
-            errors the later stages converge from: on six draws of the benchmark's setup
-            with 5 cm rms (≈ 18 rad of line-of-sight phase) 3 converged (worst block
-            ≤ 0.35 rad) against 1 without it, the others ending 0.44–1.5 rad from the
-            truth against 0.44–26 rad; at 2 cm (draws 100–119) 15 of 20 converged
-            against 16 (draw 109 fails with it; every failure warned either way), and no
-            converged draw warned against 4 of 16 without it. Costs ≈ 0.5 s per
-            iteration and start on the airborne preset (docs/autofocus.md).
+            (default 0: none; 8 where the error may be tens of radians): the
+            displacements of ``looks`` looks of the backscatter's structure
+            (:mod:`sarjax.inverse._map_drift`), solved for an increment of Δy and Δz; a
+            step is kept only when it sharpens the windows about the dominant scatterers,
+            and the stage stops at the first that does not. It widens the errors the
+            later stages converge from, and costs what they do at the issue's size.
+            Measured with 8 (``benchmarks/RESULTS.md``, both variants on the same data):
+            at 5 cm rms (≈ 18 rad of line-of-sight phase, draws 200–205) 3 of 6 converged
+            (worst block ≤ 0.35 rad) against 1 without it, the others ending 0.44–1.5 rad
+            from the truth against 0.44–26 rad; at 2 cm (draws 100–109) 7 of 10 against 9
+            (on draws 100–119 in another session 15 of 20 against 16), so it is not the
+            default. ≈ 0.5 s per iteration and start on the airborne preset.
         looks: looks across the Doppler band for the map-drift stage (≥ 3).
         strict: raise instead of warning when the starts disagree.
 
