@@ -273,9 +273,9 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
     Stages (module docstring): map drift of the looks (``map_drift`` iterations, none by
-    default), then range-dependent phase gradients of the dominant scatterers (one iteration per entry
-    of ``windows``), then L-BFGS on the sharpness of the windows about them through the
-    exact line-of-sight deviation, then the pointing error from the
+    default), then range-dependent phase gradients of the dominant scatterers (one
+    iteration per entry of ``windows``), then L-BFGS on the sharpness of the windows about
+    them through the exact line-of-sight deviation, then the pointing error from the
     Doppler centroid. The image is focused by :func:`sarjax.focus` (ω-k with second-order
     motion compensation of the estimate).
 
@@ -365,10 +365,11 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             later stages converge from, and costs what they do at the issue's size.
             Measured with 8 (``benchmarks/RESULTS.md``, both variants on the same data):
             at 5 cm rms (≈ 18 rad of line-of-sight phase, draws 200–205) 3 of 6 converged
-            (worst block ≤ 0.35 rad) against 1 without it, the others ending 0.44–1.5 rad
-            from the truth against 0.44–26 rad; at 2 cm (draws 100–109) 7 of 10 against 9
-            (on draws 100–119 in another session 15 of 20 against 16), so it is not the
-            default. ≈ 0.5 s per iteration and start on the airborne preset.
+            (worst block ≤ 0.35 rad) against 1 without it, the others ending 0.45–1.45 rad
+            from the truth against 0.46–19 rad; at 2 cm (draws 100–109) 7 of 10 against 8
+            and 9 in two runs (on draws 100–119 in another session 15 of 20 against 16),
+            so it is not the default; its starts agreed on every converged draw (no false
+            warning) where without it 3 of 8 warned. ≈ 0.5 s per iteration and start on the airborne preset.
         looks: looks across the Doppler band for the map-drift stage (≥ 3).
         strict: raise instead of warning when the starts disagree.
 
