@@ -369,7 +369,8 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             from the truth against 0.46–19 rad; at 2 cm (draws 100–109) 7 of 10 against 8
             and 9 in two runs (on draws 100–119 in another session 15 of 20 against 16),
             so it is not the default; its starts agreed on every converged draw (no false
-            warning) where without it 3 of 8 warned. ≈ 0.5 s per iteration and start on the airborne preset.
+            warning) where without it 3 of 8 warned. ≈ 0.5 s per iteration and start on
+            the airborne preset.
         looks: looks across the Doppler band for the map-drift stage (≥ 3).
         strict: raise instead of warning when the starts disagree.
 
