@@ -237,10 +237,10 @@ def table(rows, info, complete, draws, rms=0.02):
         lines.append(f"| {row['seed']} | model-based, agreement of 3 starts | "
                      f"{fmt(row['agreement'])} | | | | | "
                      f"{'warned' if row['warned'] else 'no warning'} |")
-        plain = row["map_drift"]
+        drift = row["map_drift"]
         lines.append(f"| {row['seed']} | model-based with map drift (`map_drift=8`) | "
-                     f"{fmt(plain['aperture'])} | | | | {plain['time']:.1f} | "
-                     f"{'warned' if plain['warned'] else 'no warning'} |")
+                     f"{fmt(drift['aperture'])} | | | | {drift['time']:.1f} | "
+                     f"{'warned' if drift['warned'] else 'no warning'} |")
         lines.append(f"| {row['seed']} | model-based, started from the true motion | "
                      f"{fmt(row['from_truth'])} | | | | | |")
         lines.append(f"| {row['seed']} | single-history floor | {fmt(row['floor'])} | | | | "
@@ -273,10 +273,10 @@ def table(rows, info, complete, draws, rms=0.02):
         truth_failed = [float(np.max(r["from_truth"])) for r, f in zip(rows, failed,
                                                                          strict=True) if f]
         false_alarms = sum(w and not f for f, w in zip(failed, warned, strict=True))
-        plain_failed = [bool(np.max(r["map_drift"]["aperture"]) > 0.35) for r in rows]
-        plain_warned = [r["map_drift"]["warned"] for r in rows]
-        plain_false = sum(w and not f for f, w in zip(plain_failed, plain_warned, strict=True))
-        plain_t = np.median([r["map_drift"]["time"] for r in rows])
+        drift_failed = [bool(np.max(r["map_drift"]["aperture"]) > 0.35) for r in rows]
+        drift_warned = [r["map_drift"]["warned"] for r in rows]
+        drift_false = sum(w and not f for f, w in zip(drift_failed, drift_warned, strict=True))
+        drift_t = np.median([r["map_drift"]["time"] for r in rows])
         lines += ["", f"Model-based: median residual {fmt(med)} rad (PGA {fmt(med_pga)}); "
                       f"{ok} of {len(rows)} draws ≤ 0.02 rad in every block; median run time "
                       f"{med_t:.1f} s (draws after the first). Cramér–Rao bound with the "
@@ -289,12 +289,12 @@ def table(rows, info, complete, draws, rms=0.02):
                       f"{caught} of the {sum(failed)} draws whose worst block is > 0.35 rad "
                       f"warned; {false_alarms} of the other {len(rows) - sum(failed)} did. "
                       f"With the map-drift stage (`map_drift=8`, same data): "
-                      f"{len(rows) - sum(plain_failed)} of {len(rows)} draws converge (worst "
+                      f"{len(rows) - sum(drift_failed)} of {len(rows)} draws converge (worst "
                       f"block ≤ 0.35 rad) against {len(rows) - sum(failed)} without it; "
-                      f"{sum(f and w for f, w in zip(plain_failed, plain_warned, strict=True))}"
-                      f" of its {sum(plain_failed)} failures warned, {plain_false} of its "
-                      f"{len(rows) - sum(plain_failed)} converged draws did; median run time "
-                      f"{plain_t:.1f} s. "
+                      f"{sum(f and w for f, w in zip(drift_failed, drift_warned, strict=True))}"
+                      f" of its {sum(drift_failed)} failures warned, {drift_false} of its "
+                      f"{len(rows) - sum(drift_failed)} converged draws did; median run time "
+                      f"{drift_t:.1f} s. "
                       f"Started from the true motion (`initial=`, no restarts) the estimator "
                       f"ends at a median {fmt(med_truth)} rad from it: its objective's "
                       f"optimum lies that far from the truth, whatever the search"
@@ -357,11 +357,11 @@ def main():
         # the same estimator with its optional first stage, same data
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", af.AutofocusWarning)
-            wall_plain, _, plain = timed(lambda raw=raw, radar=radar:
+            wall_drift, _, drift = timed(lambda raw=raw, radar=radar:
                                          sj.inverse.autofocus(radar, raw, map_drift=8))
         row["map_drift"] = dict(
-            aperture=af.residual_phase_rms(radar, plain, truth, af.range_blocks(radar, raw.range)),
-            warned=any("starts differ" in str(w.message) for w in caught), time=wall_plain)
+            aperture=af.residual_phase_rms(radar, drift, truth, af.range_blocks(radar, raw.range)),
+            warned=any("starts differ" in str(w.message) for w in caught), time=wall_drift)
         pointing_error = (np.asarray(model.motion.pointing)
                           - (truth.pointing - np.mean(truth.pointing)))
         print(f"  model {fmt(row['model']['aperture'])} pga {fmt(row['pga']['aperture'])} "

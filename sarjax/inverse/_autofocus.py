@@ -538,7 +538,8 @@ def _estimate(focuser, design_y, design_z, start, *, objective, windows, max_tar
     log.append(("start", time.perf_counter() - t0, value))
 
     # ---- 0. map drift of the looks ------------------------------------------------------
-    derivatives = (np.gradient(design_y, spacing, axis=0), np.gradient(design_z, spacing, axis=0))
+    derivatives = ((np.gradient(design_y, spacing, axis=0),
+                    np.gradient(design_z, spacing, axis=0)) if map_drift else None)
     for i in range(map_drift):
         step, used = _map_drift.map_drift_increment(focuser, phase, derivatives,
                                                     num_looks=looks)

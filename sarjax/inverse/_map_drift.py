@@ -74,9 +74,7 @@ def look_amplitudes(focuser: AzimuthFocuser, phase, centres, half, length):
     not depend on the shift)."""
     n_fft = focuser.compressed.shape[-1]
     spacing = focuser.radar.azimuth_spacing
-    pad = n_fft - focuser.num_pulses
-    rotation = jnp.pad(jnp.exp(1j * phase).astype(focuser.compressed.dtype), ((0, 0), (0, pad)))
-    spectrum = jnp.fft.fft(focuser.compressed * rotation, axis=-1) * focuser.filters
+    spectrum = focuser.spectrum(phase)
     d_xi = 2 * jnp.pi / (n_fft * spacing)
     offsets = jnp.fft.fftfreq(length, 1.0 / length).astype(jnp.int32)  # baseband bins
 

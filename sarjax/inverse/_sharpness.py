@@ -86,14 +86,18 @@ class AzimuthFocuser(eqx.Module):
                 ``exp(+j phase)``.
             range_index: optional (k,) indices of the range bins to focus.
         """
+        return jnp.fft.ifft(self.spectrum(phase, range_index), axis=-1)
+
+    def spectrum(self, phase, range_index=None):
+        """(range, n_fft) azimuth spectrum of :meth:`image` (the compensated data's
+        transform times the matched filters), same arguments."""
         data = self.compressed if range_index is None else self.compressed[range_index]
         filters = self.filters if range_index is None else self.filters[range_index]
         n_fft = data.shape[-1]
         phase = jnp.broadcast_to(phase, data.shape[:-1] + (self.num_pulses,))
         pad = n_fft - self.num_pulses
         rotation = jnp.pad(jnp.exp(1j * phase).astype(data.dtype), ((0, 0), (0, pad)))
-        spectrum = jnp.fft.fft(data * rotation, axis=-1)
-        return jnp.fft.ifft(spectrum * filters, axis=-1)
+        return jnp.fft.fft(data * rotation, axis=-1) * filters
 
     def unfocus(self, image, range_index):
         """Inverse of the azimuth matched filter: (k, n_fft) image rows of the bins
