@@ -205,11 +205,10 @@ def test_stop_and_go_azimuth_displacement():
 # seed 004 Table 3: (v_r, v_a) of the broadside cases, and two at 30° squint
 TABLE3 = [(0.0, (0.0, 0.5)), (0.0, (0.0, 1.0)), (0.0, (0.5, 0.0)), (0.0, (1.0, 0.0)),
           (0.0, (0.5, 1.0)), (0.0, (1.0, 1.0)), (30.0, (0.5, 0.0)), (30.0, (1.0, 0.0))]
-# CI: reduced sizes; the 30° case on 768 pulses (aperture |u| ≤ 0.58, range walk ±0.58 km)
-# with the exact model only (4 s; high_speed needs 25 s there, it runs in the slow test)
-CI_CASES = [(0.0, (1.0, 0.0), 1536, "high_speed"), (0.0, (1.0, 0.0), 1536, "time_domain"),
-            (0.0, (0.5, 1.0), 1536, "high_speed"), (0.0, (0.5, 1.0), 1536, "time_domain"),
-            (30.0, (1.0, 0.0), 768, "time_domain")]
+# CI: the docs build executes notebooks/05_seed004_high_speed.ipynb, which measures all
+# eight cases, for high_speed and the exact model, on seed 004's geometry at a reduced size
+# (768 pulses broadside, 384 at 30°) against the same theory and tolerance and fails on
+# any miss; the test below runs them on this module's geometry at full size (slow tier)
 
 
 def _shift_case(degrees, velocities, method, num_pulses=1536):
@@ -255,15 +254,6 @@ def _check_shift(measured, theory):
     # the issue's tolerance: 1 % or 0.05 m (azimuth) / 0.5 mm (range), the larger
     assert abs(measured[0] - theory[0]) <= max(0.01 * abs(theory[0]), 0.05)
     assert abs(measured[1] - theory[1]) <= max(0.01 * abs(theory[1]), 5e-4)
-
-
-@pytest.mark.parametrize("degrees, velocities, num_pulses, method", CI_CASES)
-def test_moving_target_shift(degrees, velocities, num_pulses, method):
-    """Shifts of a moving target in the focused image, against the theory of
-    :func:`sarjax.processing.moving_target_shift` (seed 004 eq. 23; range: the
-    stationary-phase position, e.g. −7.11 mm at v_r = 1 m/s, −9.48 mm at 30°)."""
-    measured, theory = _shift_case(degrees, velocities, method, num_pulses)
-    _check_shift(measured, theory)
 
 
 @pytest.mark.slow
