@@ -20,8 +20,10 @@ def kernel_width(tolerance):
 
 
 @functools.lru_cache(maxsize=32)
-def spreading_kernel(width, oversampling):
+def spreading_kernel(width, oversampling, beta_scale=1.0):
     """Polynomial coefficients of the ES kernel's taps and its Fourier transform.
+
+    ``beta_scale`` multiplies the β of the formula below (a kernel tuned for one use).
 
     Returns:
         ``(coefficients, beta)``: (degree + 1, width) float64, ``coefficients[k, i]`` of
@@ -29,7 +31,7 @@ def spreading_kernel(width, oversampling):
         ``⌈t − w/2⌉ + i`` and ``f = ⌈t − w/2⌉ − (t − w/2) ∈ [0, 1)``; and β.
     """
     # β for a 2× grid (FINUFFT's choice, 2.30 w), scaled for other oversampling factors
-    beta = 2.30 * width * (1.0 - 0.5 / oversampling) / 0.75
+    beta = beta_scale * 2.30 * width * (1.0 - 0.5 / oversampling) / 0.75
     degree = width + 4
     f = 0.5 * (1 - np.cos(np.pi * (np.arange(4 * degree) + 0.5) / (4 * degree)))
     coefficients = np.empty((degree + 1, width))
@@ -45,10 +47,10 @@ def _es(distance, width, beta):
 
 
 @functools.lru_cache(maxsize=32)
-def kernel_transform(width, oversampling, grid, modes):
+def kernel_transform(width, oversampling, grid, modes, beta_scale=1.0):
     """(modes,) ψ̂(2πq/G) in FFT order of the modes q: ∫ φ(t) e^{−j2πqt/G} dt over the
     kernel's support (Gauss–Legendre on each half; the kernel is even)."""
-    _, beta = spreading_kernel(width, oversampling)
+    _, beta = spreading_kernel(width, oversampling, beta_scale)
     nodes, weights = np.polynomial.legendre.leggauss(400)
     t = 0.25 * width * (nodes + 1)  # [0, w/2]
     w = 0.25 * width * weights
