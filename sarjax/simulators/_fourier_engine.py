@@ -211,10 +211,10 @@ def synthesize_direct(lines, line_ranges, kappa, chunk=16):
 
 STOLT_OVERSAMPLING = 1.8  # the range-line DTFT's period over the lines (≥)
 # β of the Stolt kernel relative to the ES formula's for 1.8× (es_kernel.spreading_kernel),
-# per width: the formula's β lets the table's aliases through at this oversampling. Worst
-# NMSE against the exact DTFT over 8-416 lines and 6 draws each, formula → tuned: 3 taps
-# −37.5 → −43.0 dB (scale 0.89), 4: −54.0 → −60.8 (0.94), 5: −71.9 → −78.7 (0.97); other
-# widths keep the formula's
+# per width, each scale the best of a 0.80–1.10 scan: the formula's β lets the table's
+# aliases through at this oversampling. Worst NMSE against the exact DTFT over 1–420 lines
+# (tests/test_interpolation.py), formula → tuned: 3 taps −37.5 → −43.6 dB, 4: −54.0 →
+# −60.8 dB, 5: −71.9 → −78.6 dB; other widths keep the formula's
 STOLT_BETA_SCALE = {3: 0.89, 4: 0.94, 5: 0.97}
 
 
