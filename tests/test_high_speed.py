@@ -211,8 +211,8 @@ TABLE3 = [(0.0, (0.0, 0.5)), (0.0, (0.0, 1.0)), (0.0, (0.5, 0.0)), (0.0, (1.0, 0
 # any miss; the test below runs them on this module's geometry at full size (slow tier)
 
 
-def _shift_case(degrees, velocities, method, num_pulses=1536):
-    """Measured and theoretical (Δx, Δr) of one Table 3 case.
+def _shift_case(degrees, velocities, method):
+    """Measured and theoretical (Δx, Δr) of one Table 3 case, on 1536 pulses.
 
     Two conditions make the measurement the theory's (each measured at 30°, v_r = 1 m/s,
     exact model, with a 2-D quadratic fit on back-projected 9 × 9 patches iterated onto the
@@ -222,7 +222,7 @@ def _shift_case(degrees, velocities, method, num_pulses=1536):
       (±1.15 km over 1536 pulses) past the 5 µs chirp's 750 m; with the broadside window
       (1024 samples, 1.28 km) most echoes are cut and the moving target lands 2.4 mm
       (exact) / 2.9 mm (high_speed) off the theory, a static target at the theoretical
-      position 1.3 mm off its own position. 3072 samples (3.84 km; 2048 on 768 pulses).
+      position 1.3 mm off its own position. 3072 samples (3.84 km).
     * the azimuth weighting does not depend on the pixel: ``"uniform"`` divides each pulse
       by ``W²`` of the pixel's own geometry, a gain that changes linearly with the pixel
       position. A moving target is lit like a static target 144 m away from where it
@@ -236,8 +236,7 @@ def _shift_case(degrees, velocities, method, num_pulses=1536):
     Broadside neither matters (range walk ≈ 0; the weighting's slope cancels by symmetry).
     """
     squint = np.deg2rad(degrees)
-    num_range = 1024 if not degrees else (3072 if num_pulses > 1024 else 2048)
-    radar = _reduced(squint, num_pulses=num_pulses, chirp=5e-6, num_range=num_range)
+    radar = _reduced(squint, num_pulses=1536, chirp=5e-6, num_range=3072 if degrees else 1024)
     x = R0 * np.tan(squint)
     opts = {"stop_and_go": False} if method == "time_domain" else {}
     static = sj.simulate(radar, sj.PointTargets(azimuth=[x], range=[R0]), method=method, **opts)

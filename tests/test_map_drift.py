@@ -95,7 +95,7 @@ def test_bad_inputs_name_the_value():
         sj.inverse.autofocus(radar, raw, looks=2)
 
 
-def test_autofocus_with_map_drift_does_no_harm_and_helps_from_afar():
+def test_autofocus_with_map_drift_does_no_harm_and_converges_from_2_rad():
     """The opt-in stage end to end on the CI radar: on data without motion error the
     estimate stays ≤ 0.1 rad (the map-drift steps that would blur the windows are not
     taken) and the three starts agree; on a drawn 8 mm deviation (2.2–2.4 rad) the
