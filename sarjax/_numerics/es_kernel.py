@@ -37,7 +37,10 @@ def spreading_kernel(width, oversampling, beta_scale=1.0):
     coefficients = np.empty((degree + 1, width))
     for i in range(width):
         values = _es(f + i - width / 2, width, beta)
-        coefficients[:, i] = np.polynomial.polynomial.polyfit(f, values, degree)
+        # fitted on [−1, 1] and converted (a power-basis fit on [0, 1] is ill-conditioned
+        # from degree 19, 15 taps, and warns; the two agree to 1e-13 below it)
+        fit = np.polynomial.Polynomial.fit(f, values, degree, domain=[0.0, 1.0])
+        coefficients[:, i] = fit.convert().coef
     return coefficients, beta
 
 

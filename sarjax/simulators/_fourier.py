@@ -91,8 +91,9 @@ class AbstractFourierSimulator(AbstractSimulator):
             synthesis; beyond, ``azimuth_aliases`` says what is left out).
         taps: width [cells] of the inverse Stolt interpolation's kernel (grids): the
             exponential of semicircle on the range lines' 1.8× oversampled DTFT, divided
-            by its transform (``_fourier_engine.grid_dtft``); 4 (default): −62 dB
-            against the exact sum, 3: −45 dB, 5: −80 dB.
+            by its transform (``_fourier_engine.grid_dtft``); worst NMSE against the
+            exact sum over 1–420 lines: 4 (default) −61 dB, 2: −22 dB, 3: −44 dB, 5: −79
+            dB, 6: −92 dB, 8: −130 dB (complex64's floor), 16: −250 dB.
         range_aliases: range-spectrum aliases ±m summed (the chirp's spectrum extends past
             ±f_s/2 when f_s/Δf is close to 1; 1 matches the sampled model closely).
         alias_tolerance: energy of the aliases' spectra left out, relative to the main
