@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _exported
+from .. import _exported, antenna
 from .._numerics.es_kernel import kernel_transform, spreading_kernel
 from .._numerics.interpolation import (
     PeriodicRows,
@@ -55,11 +55,9 @@ _TWO_PI = 2 * jnp.pi
 
 def pattern_term(pattern, order: int):
     """u ↦ W²⁽ⁿ⁾(u) / n!: the n-th Taylor coefficient of the pattern (autodiff)."""
-    f = pattern.__call__
-    for _ in range(order):
-        f = jax.grad(f)
+    f = antenna.pattern_derivative(pattern, order)
     scale = 1.0 / math.factorial(order)
-    return lambda u: jnp.vectorize(f)(u) * scale
+    return lambda u: f(u) * scale
 
 
 def range_wavenumbers(radar, n_r):
