@@ -46,6 +46,13 @@ def _unit_jvp(f, u):
 
 @_exported.cached
 @eqx.filter_jit
+def evaluate_derivative(pattern, order, u):
+    """``W²⁽ⁿ⁾(u)``, n = ``order`` (static), as one compiled program (eager use)."""
+    return pattern_derivative(pattern, order)(u)
+
+
+@_exported.cached
+@eqx.filter_jit
 def derivative_peak(pattern, order, u):
     """max over ``u`` of ``|W²⁽ⁿ⁾(u)|``, n = ``order`` (static), by autodiff."""
     return jnp.max(jnp.abs(pattern_derivative(pattern, order)(u)))

@@ -504,3 +504,98 @@ def test_a_flat_grid_above_the_datum_under_moderate_deviation(height):
     fast = sj.simulate(radar, scene, motion, method="moderate_deviation").data
     exact = sj.simulate(radar, scene, motion, method="time_domain").data
     assert nmse_db(fast, exact) <= -40.0  # measured −47.9 / −47.0 dB
+
+
+# ---- any antenna: lengths 0.5–6 m, PRFs 250–800 Hz, sinc² or Gaussian beams -----------------
+
+
+@st.composite
+def antenna_scenes(draw):
+    """(antenna length L [m], PRF [Hz], pattern, squint [deg], x, r): the airborne set
+    with another antenna and PRF (the Doppler band 2v/L from a quarter of the PRF to
+    1.6 PRF), a point target centred, at the window's edge or beyond it (in footprints
+    X = λr/L past the window's end), straight track."""
+    length = draw(st.sampled_from([0.5, 1.0, 2.0, 4.0, 6.0]))
+    prf = draw(st.sampled_from([250.0, 400.0, 800.0]))
+    pattern = draw(st.sampled_from(["sinc2", "gauss"]))
+    squint = draw(st.sampled_from([0.0, 0.0, 10.0]))
+    centre = _centre_range(squint)
+    r = centre + draw(st.floats(-300.0, 300.0))
+    half = NUM_PULSES * 100.0 / prf / 2  # the window's half-length at v = 100 m/s
+    footprint = 0.0314 * r / length
+    offset = draw(st.one_of(st.just(0.0), st.floats(-half, half),
+                            st.floats(half, half + 1.5 * footprint)))
+    x = r * np.tan(np.deg2rad(squint)) + offset * draw(st.sampled_from([-1.0, 1.0]))
+    return length, prf, pattern, squint, x, r
+
+
+def _check_antenna(method, case):
+    length, prf, pattern, squint, x, r = case
+    radar = sj.presets.airborne_xband(
+        chirp_duration=CHIRP, num_pulses=NUM_PULSES, num_range=NUM_RANGE, near_range=NEAR,
+        squint=np.deg2rad(squint), antenna_length=length, prf=prf,
+        pattern=sj.GaussianPattern() if pattern == "gauss" else sj.Sinc2Pattern())
+    scene = sj.PointTargets(azimuth=[x], range=[r])
+    return _check_scene(method, radar, scene, None, _centre_range(squint), case)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=2, **SETTINGS)
+@given(case=antenna_scenes())
+def test_no_warning_means_accurate_any_antenna(method, case):
+    _check_antenna(method, case)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=40, **SETTINGS)
+@given(case=antenna_scenes())
+def test_no_warning_means_accurate_any_antenna_many(method, case):
+    _check_antenna(method, case)
+
+
+@pytest.mark.parametrize("method", ["fourier_2d", "chirp_scaling", "high_speed"])
+def test_a_narrow_beams_flank_warns_azimuth_amplitude(method):
+    """A 4 m antenna (footprint 40 m at 5140 m) whose target lies 35 m past the window's
+    end: the window records its beam's flank, where the pattern bends faster than the
+    stationary-phase synthesis follows. Measured −15.9 dB (sinc², ``fourier_2d``) against
+    the exact model, with no warning before ``azimuth_amplitude``, which predicts
+    −16.0 dB; the same target centred: −25.6 dB measured (the chirp ends' error with
+    the budget's −31.6 dB), its budget 15 dB below the flank's."""
+    radar = sj.presets.airborne_xband(
+        chirp_duration=CHIRP, num_pulses=NUM_PULSES, num_range=NUM_RANGE, near_range=NEAR,
+        antenna_length=4.0, prf=250.0)
+    edge = sj.PointTargets(azimuth=[137.4], range=[R0])
+    budget = sj.validity(radar, edge, method=method)["azimuth_amplitude"]
+    with pytest.warns(sj.ValidityWarning, match="azimuth_amplitude"):
+        fast = sj.simulate(radar, edge, method=method).data
+    exact = sj.simulate(radar, edge, method="time_domain",
+                        **REFERENCE.get(method, {})).data
+    # the budget is the error's leading term: within 1.5 dB where it dominates
+    assert abs(nmse_db(fast, exact) - 10 * np.log10(budget.value)) <= 1.5
+    centred = sj.PointTargets(azimuth=[0.0], range=[R0])
+    assert sj.validity(radar, centred, method=method)["azimuth_amplitude"].value < (
+        budget.value / 10)
+
+
+@pytest.mark.xfail(strict=True, reason="open: Algorithm B with 0.3 m deviations on a "
+                   "squinted track, for a target recorded through alias bands only")
+def test_moderate_deviation_squinted_target_in_alias_bands():
+    """At 10° squint and PRF 250 Hz (Doppler band 200 Hz), a target whose beam-centre
+    crossing lies 70 m before the window is recorded through the Doppler alias bands
+    −1 and −2 only; with 0.3 m deviations B gives −15.1 dB against the exact model and
+    its budgets hold (ε₁₁ 0.005, ε₁₂ 0.058). The same target at PRF 500 Hz over the same
+    205 m window (its echo in the principal band): −32.6 dB; inside the window:
+    −31.8 dB; at broadside, the same geometry: −40.4 dB. Not understood yet: a warning or
+    a fix is owed."""
+    radar = sj.presets.airborne_xband(
+        chirp_duration=CHIRP, num_pulses=NUM_PULSES, num_range=NUM_RANGE, near_range=NEAR,
+        squint=np.deg2rad(10.0), prf=250.0)
+    scene = sj.PointTargets(azimuth=[694.9], range=[4919.3])
+    motion = _motion((0.3, 0.0), radar)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fast = sj.simulate(radar, scene, motion, method="moderate_deviation").data
+    warned = any(issubclass(w.category, sj.ValidityWarning) for w in caught)
+    exact = sj.simulate(radar, scene, motion, method="time_domain").data
+    assert warned or nmse_db(fast, exact) <= NMSE_LIMIT

@@ -54,6 +54,37 @@ def pattern_energy_table(pattern):
         return _pattern_energy_table.__wrapped__(pattern)
 
 
+@functools.lru_cache(maxsize=64)
+def _pattern_curvature_table(pattern):
+    """(u, ∫ |W²″|² from −∞ to u over ∫ |W²|² over all u) on the grid of
+    :func:`pattern_energy_table`."""
+    u = np.linspace(-64.0, 64.0, 2**17 + 1)
+    with jax.ensure_compile_time_eval():
+        energy = np.abs(np.asarray(antenna.evaluate(pattern, jnp.asarray(u)))) ** 2
+        curvature = np.abs(np.asarray(antenna.evaluate_derivative(pattern, 2,
+                                                                  jnp.asarray(u)))) ** 2
+    return u, np.cumsum(curvature) / np.sum(energy)
+
+
+def pattern_curvature_table(pattern):
+    """(u, cumulative ``∫|W²″(u)|² du`` relative to the echo energy ``∫|W²(u)|² du``)."""
+    try:
+        return _pattern_curvature_table(pattern)
+    except TypeError:  # a pattern with array fields is not hashable
+        return _pattern_curvature_table.__wrapped__(pattern)
+
+
+def amplitude_coefficient(radar, slant_range):
+    """``c = (du/dx')² / (2 ∂²φ/∂x'²) = (L/λ)² cos φ_d / (2 k₀ r)`` at the beam centre: the
+    stationary-phase synthesis's relative amplitude error is ``c |W²″(u)| / W²(u)`` (the
+    first correction of the stationary-phase expansion, the pattern's curvature against the
+    azimuth chirp's; the squint's ``u″`` term, ``2 tan φ_d W²′/((L/λ) W²″)`` of it, is
+    left out)."""
+    ratio = float(radar.antenna_length) / float(radar.wavelength)
+    squint = float(np.asarray(radar.squint))
+    return ratio**2 * math.cos(squint) / (2 * float(radar.wavenumber) * slant_range)
+
+
 class AzimuthSupport(NamedTuple):
     """What the engine synthesises in azimuth for a scene (eager, NumPy).
 
@@ -74,6 +105,10 @@ class AzimuthSupport(NamedTuple):
         hold: (left, right) [m], per scatterer, how far the grid must reach beyond the
             window's ends for the bands' cut to ring no more than a quarter of the
             tolerance into it from its periodic images (None: the Fresnel margin).
+        amplitude: the stationary-phase synthesis's amplitude error energy over the
+            recorded echo energy, ``Σ |γ|² ∫ (c W²″)² / Σ |γ|² ∫ (W²)²`` over the pattern
+            arguments each scatterer's echo is recorded at (``c``:
+            :func:`amplitude_coefficient`).
     """
 
     bands: int
@@ -82,6 +117,7 @@ class AzimuthSupport(NamedTuple):
     sidelobes: float = 0.0
     synthesised: float = 1.0
     hold: tuple | None = None
+    amplitude: float = 0.0
 
 
 def _pattern_u(radar, along, slant_range):
@@ -163,6 +199,16 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     seen = lambda lo, hi: np.clip(np.minimum(f_b, hi) - np.maximum(f_a, lo), 0.0, None)
     per_scatterer = np.clip(f_b - f_a, 0.0, None)
     recorded = float(np.sum(weight * per_scatterer))
+    # the stationary-phase amplitude error over the same pattern arguments
+    u_table, curvature = pattern_curvature_table(radar.pattern)
+    if is_traced((scene.azimuth, scene.reflectivity)):
+        g_span = np.full(shape, curvature[-1])
+    else:
+        g_a, g_b = (np.interp(v, u_table, curvature) for v in (u_a, u_b))
+        g_span = np.abs(g_b - g_a)
+    coefficient = amplitude_coefficient(radar, np.broadcast_to(r, shape))
+    amplitude = (float(np.sum(weight * coefficient**2 * g_span)) / recorded
+                 if recorded > 0 else 0.0)
     main_lobe = float(np.sum(weight * seen(energy_below(-1.0), energy_below(1.0))))
     sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
 
@@ -231,7 +277,7 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
         x_e, reach = np.take_along_axis(x_e, order, 0), np.take_along_axis(reach, order, 0)
         hold = (x_e[0] - reach[0], x_e[1] + reach[1])
     return AzimuthSupport(int(bands), left_out(bands), band_look_angles(radar, bands),
-                          max(sidelobes, 0.0), max(synthesised, 1.0), hold)
+                          max(sidelobes, 0.0), max(synthesised, 1.0), hold, amplitude)
 
 
 def _band_cuts(radar, x, r, moving, bands):
