@@ -180,6 +180,7 @@ def thresholds_page() -> str:
         ("`azimuth_window`", "—", "0 (nothing may wrap)"),
         ("`azimuth_extent`", "EXTENT_THRESHOLD", f"{b.EXTENT_THRESHOLD:g}"),
         ("`azimuth_sidelobes`", "SIDELOBE_THRESHOLD", f"{b.SIDELOBE_THRESHOLD:g}"),
+        ("`azimuth_amplitude`", "AMPLITUDE_THRESHOLD", f"{b.AMPLITUDE_THRESHOLD:.3g}"),
         ("`range_window`", "ALL_MISSING", "1 (only a window that records nothing)"),
     ]
     rows = ["| budget | constant in `sarjax.simulators._budgets` | threshold |",

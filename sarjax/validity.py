@@ -2,14 +2,15 @@
 
 Every simulator declares its budgets (``AbstractSimulator.budgets``): the window and
 grid budgets (``range_window`` for every method; ``azimuth_aliases``, ``azimuth_window``,
-``azimuth_extent``, ``azimuth_sidelobes`` for the Fourier-domain methods) and the
-approximation budgets of the approximate ones (the phase each neglected deviation term
-can cause over the pulses that illuminate a scatterer, ``epsilon_11``, ``epsilon_12``,
-``epsilon_13``, ``epsilon_motion``, and the pointing expansion's ``epsilon_az``;
-formulas in ``sarjax.simulators._tracks``, thresholds in ``sarjax.simulators._budgets``:
-0.1 rad for phases and 0.02 for the relative pattern error, chosen on the calibration
-grid of ``tests/test_validity.py`` so that every case called valid is accurate — focused
-NMSE ≤ −25 dB, IRW within 1 %, PSLR/ISLR within 0.3 dB of the exact model).
+``azimuth_extent``, ``azimuth_sidelobes``, ``azimuth_amplitude`` for the Fourier-domain
+methods) and the approximation budgets of the approximate ones (the phase each neglected
+deviation term can cause over the pulses that illuminate a scatterer, ``epsilon_11``,
+``epsilon_12``, ``epsilon_13``, ``epsilon_motion``, and the pointing expansion's
+``epsilon_az``; formulas in ``sarjax.simulators._tracks``, thresholds in
+``sarjax.simulators._budgets``: 0.1 rad for phases and 0.02 for the relative pattern
+error, chosen on the calibration grid of ``tests/test_validity.py`` so that every case
+called valid is accurate — focused NMSE ≤ −25 dB, IRW within 1 %, PSLR/ISLR within
+0.3 dB of the exact model).
 """
 
 from __future__ import annotations
