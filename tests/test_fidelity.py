@@ -586,8 +586,12 @@ def test_moderate_deviation_squinted_target_in_alias_bands():
     −1 and −2 only; with 0.3 m deviations B gives −15.1 dB against the exact model and
     its budgets hold (ε₁₁ 0.005, ε₁₂ 0.058). The same target at PRF 500 Hz over the same
     205 m window (its echo in the principal band): −32.6 dB; inside the window:
-    −31.8 dB; at broadside, the same geometry: −40.4 dB. Not understood yet: a warning or
-    a fix is owed."""
+    −31.8 dB; at broadside, the same geometry: −40.4 dB. A linear deviation (0.3 m over the
+    window, a pure Doppler shift of ψ) gives −19.4 dB at PRF 250 Hz and −33.0 dB at
+    500 Hz: the likely cause is B's per-line motion phase, applied on the pulses of one
+    Doppler band and transformed back, which moves energy across the band's edge, where
+    it wraps to the other edge and is synthesised with that band's range migration. A
+    warning or a fix is owed."""
     radar = sj.presets.airborne_xband(
         chirp_duration=CHIRP, num_pulses=NUM_PULSES, num_range=NUM_RANGE, near_range=NEAR,
         squint=np.deg2rad(10.0), prf=250.0)
