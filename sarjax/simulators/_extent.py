@@ -280,6 +280,51 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
                           max(sidelobes, 0.0), max(synthesised, 1.0), hold, amplitude)
 
 
+def band_edge_spill(radar, scene, acquisition, bands, spread):
+    """The share of the recorded echo energy within ``spread`` [rad/m] of an edge between
+    two synthesised Doppler bands (principal and ``bands`` alias bands on each side): a
+    factor a band's echo takes on its pulses (Algorithm B's per-line motion phase, whose
+    Doppler spread is ``spread``) moves that energy across the edge, where the band's
+    transform wraps it to its other edge.
+
+    Each scatterer's recorded energy ``∫|W²(u)|² du`` over the pattern arguments of the
+    window, weighted by ``|γ|²`` (static scatterers; a traced scene: its whole echo),
+    counted within ``ξ_e ± spread`` of each inner edge ``ξ_e`` (``ξ = k₀ sin φ``,
+    ``a = −r tan φ``)."""
+    if bands < 1 or not spread > 0:
+        return 0.0
+    u_grid, cumulative = pattern_energy_table(radar.pattern)
+    energy_below = lambda u: np.interp(u, u_grid, cumulative)  # noqa: E731
+    dx = float(radar.azimuth_spacing)
+    n = acquisition.num_pulses
+    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+    w1 = w0 + (n - 1) * dx
+    x, r = _scene_cells(scene, (w0, w1))
+    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
+    r = np.broadcast_to(r, shape)
+    if is_traced((scene.azimuth, scene.reflectivity)):
+        weight, f_a, f_b = np.ones(shape), np.zeros(shape), np.ones(shape)
+    else:
+        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
+        u_a, u_b = (np.nan_to_num(_pattern_u(radar, end - x, r), nan=fill)
+                    for end, fill in ((w0, -np.inf), (w1, np.inf)))
+        f_a, f_b = energy_below(u_a), energy_below(u_b)
+        f_a, f_b = np.minimum(f_a, f_b), np.maximum(f_a, f_b)
+    recorded = float(np.sum(weight * (f_b - f_a)))
+    if recorded <= 0:
+        return 0.0
+    k0 = float(radar.wavenumber)
+    spilled = 0.0
+    for inner in range(bands):  # the edges between bands ±inner and ±(inner + 1)
+        for edge in _band_wavenumbers(radar, inner):
+            phi = np.arcsin(np.clip((edge + np.array([-spread, spread])) / k0, -1, 1))
+            lo, hi = (energy_below(_pattern_u(radar, -r * math.tan(p), r)) for p in phi)
+            lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+            spilled += float(np.sum(weight * np.clip(np.minimum(f_b, hi)
+                                                     - np.maximum(f_a, lo), 0.0, None)))
+    return spilled / recorded
+
+
 def _band_cuts(radar, x, r, moving, bands):
     """Where the synthesised bands' edges ``ξ_e`` cut each scatterer's echo:
     ``(x_e, u_e, ℓ²)``, each (2, …) (the lower ξ edge first): the pulse of the edge's
