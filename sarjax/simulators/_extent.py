@@ -172,6 +172,17 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
         radar, scene, acquisition, tolerance, bands, max_bands))
 
 
+def _window_cells(radar, scene, acquisition):
+    """((w₀, w₁) the first and last pulse's x' [m], x, r of the scene's cells
+    (:func:`_scene_cells`), their broadcast shape)."""
+    dx = float(radar.azimuth_spacing)
+    n = acquisition.num_pulses
+    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+    w1 = w0 + (n - 1) * dx
+    x, r = _scene_cells(scene, (w0, w1))
+    return (w0, w1), x, r, np.broadcast_shapes(np.shape(x), np.shape(r))
+
+
 def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     u_grid, cumulative = pattern_energy_table(radar.pattern)
     # F(u): the energy fraction below u, monotone, so that the energy over
@@ -179,11 +190,7 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     # F(u_a), F(u_b) are interpolated once, the bands' edges per range only
     energy_below = lambda u: np.interp(u, u_grid, cumulative)
     dx = float(radar.azimuth_spacing)
-    n = acquisition.num_pulses
-    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
-    w1 = w0 + (n - 1) * dx
-    x, r = _scene_cells(scene, (w0, w1))
-    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
+    (w0, w1), x, r, shape = _window_cells(radar, scene, acquisition)
     if is_traced((scene.azimuth, scene.reflectivity)):
         # traced scatterers: judged by the whole echo (every |u|), equally weighted
         weight = np.ones(shape)
@@ -295,12 +302,7 @@ def band_edge_spill(radar, scene, acquisition, bands, spread):
         return 0.0
     u_grid, cumulative = pattern_energy_table(radar.pattern)
     energy_below = lambda u: np.interp(u, u_grid, cumulative)  # noqa: E731
-    dx = float(radar.azimuth_spacing)
-    n = acquisition.num_pulses
-    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
-    w1 = w0 + (n - 1) * dx
-    x, r = _scene_cells(scene, (w0, w1))
-    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
+    (w0, w1), x, r, shape = _window_cells(radar, scene, acquisition)
     r = np.broadcast_to(r, shape)
     if is_traced((scene.azimuth, scene.reflectivity)):
         weight, f_a, f_b = np.ones(shape), np.zeros(shape), np.ones(shape)
