@@ -172,15 +172,30 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
         radar, scene, acquisition, tolerance, bands, max_bands))
 
 
-def _window_cells(radar, scene, acquisition):
-    """((w₀, w₁) the first and last pulse's x' [m], x, r of the scene's cells
-    (:func:`_scene_cells`), their broadcast shape)."""
+def _recorded_arguments(radar, scene, acquisition, energy_below):
+    """The pattern arguments each scatterer's echo is recorded at, for the azimuth budgets:
+    ``((w₀, w₁), x, r, shape, weight, moving, (u_a, u_b), (F_a, F_b))``: the window's first
+    and last pulse [m], the scene's cells
+    (:func:`_scene_cells`, broadcast to ``shape``), their weights ``|γ|²``, velocities
+    (:func:`_velocities`), the arguments at the window's first and last pulses (as the
+    exact model sees a moving scatterer) and the energy fractions below them, lower first.
+    Traced scatterers are judged by the whole echo, equally weighted (no ``u``: None)."""
     dx = float(radar.azimuth_spacing)
     n = acquisition.num_pulses
     w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
     w1 = w0 + (n - 1) * dx
     x, r = _scene_cells(scene, (w0, w1))
-    return (w0, w1), x, r, np.broadcast_shapes(np.shape(x), np.shape(r))
+    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
+    if is_traced((scene.azimuth, scene.reflectivity)):
+        return ((w0, w1), x, r, shape, np.ones(shape), None, None,
+                (np.zeros(shape), np.ones(shape)))
+    weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
+    moving = _velocities(scene, shape)
+    u_a, u_b = (np.nan_to_num(_pattern_u(radar, *_seen_from(radar, end - x, r, moving)),
+                              nan=fill) for end, fill in ((w0, -np.inf), (w1, np.inf)))
+    f_a, f_b = energy_below(u_a), energy_below(u_b)
+    return ((w0, w1), x, r, shape, weight, moving, (u_a, u_b),
+            (np.minimum(f_a, f_b), np.maximum(f_a, f_b)))
 
 
 def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
@@ -190,28 +205,19 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
     # F(u_a), F(u_b) are interpolated once, the bands' edges per range only
     energy_below = lambda u: np.interp(u, u_grid, cumulative)
     dx = float(radar.azimuth_spacing)
-    (w0, w1), x, r, shape = _window_cells(radar, scene, acquisition)
-    if is_traced((scene.azimuth, scene.reflectivity)):
-        # traced scatterers: judged by the whole echo (every |u|), equally weighted
-        weight = np.ones(shape)
-        f_a, f_b = np.zeros(shape), np.ones(shape)
-        moving = None
-    else:
-        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
-        moving = _velocities(scene, shape)
-        u_a, u_b = (np.nan_to_num(_pattern_u(radar, *_seen_from(radar, end - x, r, moving)),
-                                  nan=fill) for end, fill in ((w0, -np.inf), (w1, np.inf)))
-        f_a, f_b = energy_below(u_a), energy_below(u_b)
-        f_a, f_b = np.minimum(f_a, f_b), np.maximum(f_a, f_b)
+    (w0, w1), x, r, shape, weight, moving, arguments, (f_a, f_b) = _recorded_arguments(
+        radar, scene, acquisition, energy_below)
+    if arguments is not None:
+        u_a, u_b = arguments
     seen = lambda lo, hi: np.clip(np.minimum(f_b, hi) - np.maximum(f_a, lo), 0.0, None)
     per_scatterer = np.clip(f_b - f_a, 0.0, None)
     recorded = float(np.sum(weight * per_scatterer))
     # the stationary-phase amplitude error over the same pattern arguments
     u_table, curvature = pattern_curvature_table(radar.pattern)
-    if is_traced((scene.azimuth, scene.reflectivity)):
+    if arguments is None:
         g_span = np.full(shape, curvature[-1])
     else:
-        g_a, g_b = (np.interp(v, u_table, curvature) for v in (u_a, u_b))
+        g_a, g_b = (np.interp(v, u_table, curvature) for v in arguments)
         g_span = np.abs(g_b - g_a)
     coefficient = amplitude_coefficient(radar, np.broadcast_to(r, shape))
     amplitude = (float(np.sum(weight * coefficient**2 * g_span)) / recorded
@@ -295,23 +301,16 @@ def band_edge_spill(radar, scene, acquisition, bands, spread):
     transform wraps it to its other edge.
 
     Each scatterer's recorded energy ``∫|W²(u)|² du`` over the pattern arguments of the
-    window, weighted by ``|γ|²`` (static scatterers; a traced scene: its whole echo),
+    window (:func:`_recorded_arguments`), weighted by ``|γ|²``,
     counted within ``ξ_e ± spread`` of each inner edge ``ξ_e`` (``ξ = k₀ sin φ``,
     ``a = −r tan φ``)."""
     if bands < 1 or not spread > 0:
         return 0.0
     u_grid, cumulative = pattern_energy_table(radar.pattern)
     energy_below = lambda u: np.interp(u, u_grid, cumulative)  # noqa: E731
-    (w0, w1), x, r, shape = _window_cells(radar, scene, acquisition)
+    _, _, r, shape, weight, _, _, (f_a, f_b) = _recorded_arguments(
+        radar, scene, acquisition, energy_below)
     r = np.broadcast_to(r, shape)
-    if is_traced((scene.azimuth, scene.reflectivity)):
-        weight, f_a, f_b = np.ones(shape), np.zeros(shape), np.ones(shape)
-    else:
-        weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
-        u_a, u_b = (np.nan_to_num(_pattern_u(radar, end - x, r), nan=fill)
-                    for end, fill in ((w0, -np.inf), (w1, np.inf)))
-        f_a, f_b = energy_below(u_a), energy_below(u_b)
-        f_a, f_b = np.minimum(f_a, f_b), np.maximum(f_a, f_b)
     recorded = float(np.sum(weight * (f_b - f_a)))
     if recorded <= 0:
         return 0.0
