@@ -566,6 +566,10 @@ class LobeGeometry:
                       np.asarray(float(radar.antenna_length) / lam),
                       np.asarray(math.tan(self.squint)), np.asarray(float(radar.height)))
 
+    @property
+    def radar(self):
+        return self._radar
+
     @functools.cached_property
     def delta_r(self):
         radar = self._radar
@@ -618,6 +622,31 @@ class LobeGeometry:
     def line_of_sight_peak(self) -> float:
         """max |δr_xr| over the main lobe [m] (0 if no pair is in it)."""
         return float(_line_of_sight_peak(self.pairs))
+
+    def line_of_sight_span(self) -> float:
+        """:func:`line_of_sight_span` of the pulses and the scene's samples [m]."""
+        return line_of_sight_span(self._radar, self._dy, self._dz, self.rs, self._hs)
+
+
+def line_of_sight_span(radar, horizontal, vertical, ranges, heights, looks: int = 9) -> float:
+    """The largest peak-to-peak over the pulses of ``δr_xr(x', r, h)`` [m] at the look
+    angles of the scene's samples (``ranges``, ``heights`` (sample,); ``looks`` of them at
+    the quantiles of their look angle): it bounds ``|δr_xr − δ̄|`` for any mean δ̄ over the
+    pulses (edge padding adds no value), what the coupling's Taylor series in
+    Algorithm B is expanded in. NumPy, ``horizontal``, ``vertical`` Δy, Δz [m], (pulse,)
+    or (realization, pulse): the largest over the realizations."""
+    dy, dz = np.broadcast_arrays(*(np.atleast_2d(np.asarray(v, float))
+                                   for v in (horizontal, vertical)))
+    if dy.size == 0 or not (np.any(dy) or np.any(dz)):
+        return 0.0
+    dy, dz = dy.reshape(-1, dy.shape[-1]), dz.reshape(-1, dz.shape[-1])
+    platform = float(radar.height)
+    r, h = np.asarray(ranges, float), np.broadcast_to(np.asarray(heights, float), np.shape(ranges))
+    look = np.arccos(np.clip((platform - h) / r, -1.0, 1.0))
+    pick = np.unique(np.argsort(look)[np.linspace(0, look.size - 1, looks).astype(int)])
+    los = np.asarray(geometry.line_of_sight_deviation(
+        dy[..., None], dz[..., None], r[pick], h[pick], platform))  # (batch, pulse, look)
+    return float(np.max(np.ptp(los, axis=1)))
 
 
 # ---- the pointing expansion -------------------------------------------------------------

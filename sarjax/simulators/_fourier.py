@@ -39,11 +39,19 @@ import numpy as np
 from .. import geometry
 from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import reduced_phasor, unit_phasor
+from ..motion import Motion
 from ..scene import ReflectivityGrid
 from . import _extent as extent
 from . import _fourier_engine as engine
-from ._base import AbstractPlan, AbstractSimulator, Cost
-from ._budgets import Budget, LobeGeometry, azimuth_budgets, rounding_budgets
+from ._base import AbstractPlan, AbstractSimulator, Cost, is_traced
+from ._budgets import (
+    Budget,
+    LobeGeometry,
+    azimuth_budgets,
+    line_of_sight_span,
+    rounding_budgets,
+    scene_samples,
+)
 from ._tracks import ModerateDeviationTrack, SmallDeviationTrack, StraightTrack
 
 _TWO_PI = 2 * jnp.pi
@@ -57,6 +65,9 @@ class FourierPlan(AbstractPlan):
         azimuth_pad: pulses synthesised before (and after) the window.
         range_fft_size: n_r, the range FFT length.
         alias_columns: columns per range alias (None: every column).
+        bands: Doppler alias bands synthesised on each side of the principal one.
+        included: (scatterer,) 1 for the scatterers the grid holds, else 0.
+        coupling_order: the Taylor order of Algorithm B's coupling (0: none).
     """
 
     azimuth_pad: int = eqx.field(static=True)
@@ -64,6 +75,7 @@ class FourierPlan(AbstractPlan):
     alias_columns: int | None = eqx.field(static=True)
     bands: int = eqx.field(static=True)
     included: jnp.ndarray
+    coupling_order: int = eqx.field(static=True, default=0)
 
     def sizes(self, acquisition, column_block=None):
         """(azimuth pad, n_r, n_x, column block)."""
@@ -105,11 +117,15 @@ class AbstractFourierSimulator(AbstractSimulator):
             every column (at −35 dB, 1.5 dB worse on a speckle grid; ``range_aliases=0``,
             the seed's model, is the fastest and least faithful at the chirp ends).
         coupling_order: moderate deviation only: Taylor order of the coupling correction
-            (0 = the seed's Algorithm B). The seed neglects
+            (0 = the seed's Algorithm B); None (default): the smallest of 1 … 3 whose
+            remainder is within ``coupling_tolerance`` for this motion and scene
+            (``_tracks.ModerateDeviationTrack.coupling_order``). The seed neglects
             ``ϕ = √((r + δ)² + (x' − x)²) − √(r² + (x' − x)²) − δ ≈ δ (r/R − 1)``
             (its condition (11)); with ``r/R = √(k₀² − ξ²)/k₀`` at the stationary point,
             ``k₀ϕ = α(ξ) δ(x')``, ``α = √(k₀² − ξ²) − k₀``, a product of a ξ- and an
             x'-function, applied here by a Taylor series in δ about its mean.
+        coupling_tolerance: the largest Taylor remainder [rad] of the coupling that
+            ``coupling_order=None`` accepts (default 1e-3: an NMSE below −60 dB).
         envelope_correction: moderate deviation only: apply the range-envelope shift of
             ψ(x', r) to first order (``e^{−jηψ} ≈ 1 − jηψ``, one extra range synthesis);
             the seed neglects it (its condition (12), ``η_max |ψ| ≪ 1``).
@@ -137,7 +153,8 @@ class AbstractFourierSimulator(AbstractSimulator):
     taps: int = eqx.field(static=True, default=4)
     range_aliases: int = eqx.field(static=True, default=1)
     alias_tolerance: float = eqx.field(static=True, default=10 ** -4.5)
-    coupling_order: int = eqx.field(static=True, default=3)
+    coupling_order: int | None = eqx.field(static=True, default=None)
+    coupling_tolerance: float = eqx.field(static=True, default=1e-3)
     envelope_correction: bool = eqx.field(static=True, default=True)
     column_block: int | None = eqx.field(static=True, default=None)
     column_loops: int = eqx.field(static=True, default=2)
@@ -146,6 +163,13 @@ class AbstractFourierSimulator(AbstractSimulator):
         if not (isinstance(self.alias_tolerance, (int, float))
                 and 0 < self.alias_tolerance < 1):
             raise ValueError(f"alias_tolerance={self.alias_tolerance!r} must be in (0, 1)")
+        if self.coupling_order is not None and not (
+                isinstance(self.coupling_order, int) and self.coupling_order >= 0):
+            raise ValueError(f"coupling_order={self.coupling_order!r} must be None or an "
+                             "integer >= 0")
+        if not (isinstance(self.coupling_tolerance, (int, float))
+                and self.coupling_tolerance > 0):
+            raise ValueError(f"coupling_tolerance={self.coupling_tolerance!r} must be > 0 [rad]")
         if self.column_block is not None and not (
                 isinstance(self.column_block, int) and self.column_block >= 1):
             raise ValueError(f"column_block={self.column_block!r} must be a positive integer")
@@ -168,9 +192,19 @@ class AbstractFourierSimulator(AbstractSimulator):
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
         support, grid = self.grid(radar, scene, motion, acquisition)
+
+        def span():  # None where traced (differentiated): the order cannot be chosen
+            dy, dz, _ = (Motion() if motion is None else motion).resolve(
+                acquisition.num_pulses)
+            if is_traced((dy, dz, scene.range, scene.height)):
+                return None
+            _, rs, hs = scene_samples(scene)
+            return line_of_sight_span(radar, dy, dz, rs, hs)
+
         return FourierPlan(grid.lead, grid.n_r,
                            engine.alias_column_count(radar, grid.n_r, self.alias_tolerance),
-                           support.bands, jnp.asarray(grid.included, dtype=float))
+                           support.bands, jnp.asarray(grid.included, dtype=float),
+                           self.track.coupling_order(self, radar, span))
 
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         support, grid = self.grid(radar, scene, motion, acquisition)
@@ -311,7 +345,8 @@ def synthesize(sim, plan, radar, scene, motion, acquisition, dtype):
         radar=radar, prepared=prepared, ranges=prepared.ranges, k0=k0,
         cos_d=jnp.cos(radar.squint), tan_d=jnp.tan(radar.squint),
         dx=radar.azimuth_spacing, x_pulses=acquisition.pulse_azimuths(radar),
-        horizontal=horizontal, vertical=vertical, pad=pad, n_x=n_x, n_pulses=n_pulses)
+        horizontal=horizontal, vertical=vertical, pad=pad, n_x=n_x, n_pulses=n_pulses,
+        coupling_order=plan.coupling_order)
     ctx.x0 = ctx.x_pulses[0] - pad * ctx.dx  # DFT origin: the padded window's first pulse
     principal = engine.squinted_wavenumbers(radar, n_x)
 
