@@ -83,6 +83,8 @@ CASES = [
     ("small_deviation, alias_tolerance=1e-3.5", "small_deviation", {"alias_tolerance": 10**-3.5}),
     ("small_deviation, range_aliases=0", "small_deviation", {"range_aliases": 0}),
     ("moderate_deviation", "moderate_deviation", {}),
+    # the same-run baseline of the coupling order chosen by tolerance (order 1 here)
+    ("moderate_deviation, coupling_order=3", "moderate_deviation", {"coupling_order": 3}),
     ("moderate_deviation, range_aliases=0", "moderate_deviation", {"range_aliases": 0}),
 ]
 TARGETS_FFT = {"fourier_2d": 6.0, "small_deviation": 8.0, "moderate_deviation": 15.0}
