@@ -3,7 +3,8 @@ scene.
 
 :func:`autofocus` estimates Δy(x'), Δz(x') (cubic B-splines) by
 
-0. optionally (``map_drift``), multi-look map drift (:mod:`sarjax.inverse._map_drift`): the
+0. where the start's image is blurred beyond the phase gradients' reach (``map_drift``,
+   ``map_drift_blur``), multi-look map drift (:mod:`sarjax.inverse._map_drift`): the
    relative displacements of looks across the Doppler band, measured on the backscatter's
    structure and solved for the deviation (coarse: it brings errors of tens of radians to
    about one);
@@ -59,6 +60,9 @@ from ._sharpness import (
 )
 
 SCENE_MIN_LOOK_ANGLE = np.deg2rad(8.0)  # nearest clutter of random_scene [rad]
+
+
+MAP_DRIFT_ITERATIONS = 8  # the map-drift stage's iterations where map_drift=None runs it
 
 
 class AutofocusWarning(UserWarning):
@@ -268,7 +272,8 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
               initial: Motion | None = None,
               gradient_targets: int = 12, restarts: int = 2,
               restart_rms: float | None = None,
-              agreement_tolerance: float = 0.1, map_drift: int = 0, looks: int = 16,
+              agreement_tolerance: float = 0.1, map_drift: int | None = None,
+              map_drift_blur: float = 30.0, looks: int = 16,
               strict: bool = False) -> AutofocusResult:
     """Estimate Δy(x'), Δz(x') and δ_az(x') from raw data of an unknown scene, and refocus.
 
@@ -357,7 +362,8 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             above it an :class:`AutofocusWarning` (``strict``: a ValueError) says the
             estimate is not unique.
         map_drift: iterations of the map-drift stage that runs first from every start
-            (default 0: none; 8 where the error may be tens of radians): the
+            (0: none; None, the default: 8 where the start's image is blurred by
+            ``map_drift_blur`` or more, else none): the
             displacements of ``looks`` looks of the backscatter's structure
             (:mod:`sarjax.inverse._map_drift`), solved for an increment of Δy and Δz; a
             step is kept only when it sharpens the windows about the dominant scatterers,
@@ -371,6 +377,14 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
             so it is not the default; its starts agreed on every converged draw (no false
             warning) where without it 3 of 8 warned. ≈ 0.5 s per iteration and start on
             the airborne preset.
+        map_drift_blur: the half-width [m] of the start image's blur (measured as the
+            phase-gradient stage measures it, 1.5 × the −10 dB width of the median
+            dominant scatterer's line, within the first of ``windows``) from which
+            ``map_drift=None`` runs the map-drift stage. Measured on the benchmark's
+            draws (starting from the straight track): 4–22 m on the twenty 2 cm draws
+            100–119 (where map drift lost a draw), 38–48 m on the six 5 cm draws 200–205
+            (where it won two); the true largest blur r max|∂φ/∂x'|/k₀ was 5–15 m and
+            23–38 m.
         looks: looks across the Doppler band for the map-drift stage (≥ 3).
         strict: raise instead of warning when the starts disagree.
 
@@ -401,8 +415,10 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         raise ValueError(f"restart_rms={restart_rms!r} must be > 0 [m]")
     if not agreement_tolerance > 0:
         raise ValueError(f"agreement_tolerance={agreement_tolerance!r} must be > 0 [rad]")
-    if not isinstance(map_drift, int) or map_drift < 0:
-        raise ValueError(f"map_drift={map_drift!r} must be an integer >= 0")
+    if map_drift is not None and (not isinstance(map_drift, int) or map_drift < 0):
+        raise ValueError(f"map_drift={map_drift!r} must be None or an integer >= 0")
+    if not map_drift_blur > 0:
+        raise ValueError(f"map_drift_blur={map_drift_blur!r} must be > 0 [m]")
     if not isinstance(looks, int) or looks < 3:
         raise ValueError(f"looks={looks!r} must be an integer >= 3")
     x = np.asarray(raw.azimuth, float)
@@ -428,6 +444,15 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
     spacing = float(radar.azimuth_spacing)
     footprint = float(radar.footprint(radar.reference_range))
     segment = max(int(footprint / 2 / spacing), 8)
+    blur = None
+    if map_drift is None:  # the map-drift stage where the start is blurred beyond the
+        # reach of the phase gradients' windows
+        start = (np.linalg.lstsq(design_y, start_y, rcond=None)[0],
+                 np.linalg.lstsq(design_z, start_z, rcond=None)[0])
+        blur = _start_blur(focuser, design_y, design_z, start, half_m=windows[0],
+                           segment=segment, gradient_targets=gradient_targets,
+                           min_ratio=min_ratio, min_window=min_window)
+        map_drift = MAP_DRIFT_ITERATIONS if blur is not None and blur >= map_drift_blur else 0
     settings = dict(objective=objective, windows=windows, max_targets=max_targets,
                     min_ratio=min_ratio, max_steps=max_steps, segment=segment,
                     sharpness_region=sharpness_region, target_half=int(round(
@@ -500,6 +525,9 @@ def autofocus(radar, raw: RawData, *, model: MotionModel | None = None,
         fixed = fixed + ("pointing slower than X/2",)
     history = run.log if len(runs) == 1 else run.log + (
         (f"start {kept} of {len(runs)} kept", timings["restarts"], float(np.max(agreement))),)
+    if blur is not None:
+        history = ((f"start blur ±{blur:.1f} m: {map_drift} map-drift iterations "
+                    f"(map_drift_blur={map_drift_blur:g} m)", 0.0, blur),) + history
     return AutofocusResult(
         motion=motion, phase_history=None, image=image, method="model", objective=objective,
         history=history, timings=timings, fixed=fixed,
@@ -614,6 +642,26 @@ def _estimate(focuser, design_y, design_z, start, *, objective, windows, max_tar
         log.append((f"sharpness {i}", time.perf_counter() - t0, value))
     timings["sharpness"] = time.perf_counter() - t0
     return _Run(c_y=c_y, c_z=c_z, log=tuple(log), timings=timings, coverage=coverage)
+
+
+def _start_blur(focuser, design_y, design_z, start, *, half_m, segment, gradient_targets,
+                min_ratio, min_window):
+    """Half-width [m] of the blur of the image the coefficients ``start`` focus, as the
+    phase-gradient stage's first iteration measures it (``_pga.blur_half_width`` of the
+    dominant scatterers' lines within ``half_m``); None with fewer than 3 of them."""
+    spacing = float(focuser.radar.azimuth_spacing)
+    num_pulses = design_y.shape[0]
+    phase = _los_phase(focuser, jnp.asarray(design_y @ start[0]),
+                       jnp.asarray(design_z @ start[1]))
+    power = np.abs(np.asarray(_pga.jax_image(focuser, phase))) ** 2
+    half = max(int(round(half_m / spacing)), 2)
+    rows, cols = _pga.select_targets(power, num_pulses, segment=segment,
+                                     max_targets=gradient_targets, min_ratio=min_ratio,
+                                     exclusion=half)
+    if rows.size < 3:
+        return None
+    return spacing * _pga.blur_half_width(power, rows, cols, half, average="median",
+                                          floor=max(int(round(min_window / spacing)), 2))
 
 
 def _choose(radar, raw, focuser, profiles, settings, tolerance):
