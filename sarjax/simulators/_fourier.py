@@ -28,13 +28,11 @@ side and the range on ``n_r`` samples (``_extent.work_grid``), then cropped.
 
 from __future__ import annotations
 
-import math
 from types import SimpleNamespace
 from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 
 from .. import geometry
 from .._numerics.interpolation import next_fast_len
@@ -45,7 +43,6 @@ from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractPlan, AbstractSimulator, Cost, is_traced
 from ._budgets import (
-    Budget,
     LobeGeometry,
     azimuth_budgets,
     line_of_sight_span,
@@ -217,11 +214,7 @@ class AbstractFourierSimulator(AbstractSimulator):
         lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
                             float(acquisition.azimuth_center))
         budgets, ratio = self.track.approximation_budgets(self, radar, lobe)
-        if self.track.kind == "moderate" and not lobe.still:
-            support = self.support(radar, scene, acquisition)
-            budgets = budgets + [band_edge_budget(radar, scene, acquisition, lobe,
-                                                  support.bands)]
-        return budgets, ratio
+        return budgets + self.track.band_budgets(self, radar, scene, acquisition, lobe), ratio
 
     def memory(self, plan, radar, scene, acquisition, dtype, shards=1) -> int:
         """Workspace [bytes] of one realization; with its columns split over ``shards``
@@ -242,39 +235,6 @@ class AbstractFourierSimulator(AbstractSimulator):
         if not isinstance(scene, ReflectivityGrid):
             steady += 3e-9 * engine.range_line_count(scene) * n_x * n_r
         return Cost(compile=self.compile_time, steady=steady)
-
-
-BAND_EDGE_THRESHOLD = 10 ** -2.8  # −28 dB
-BAND_EDGE_SCALE = 10.0  # [m], measured (band_edge_budget)
-
-
-def band_edge_budget(radar, scene, acquisition, lobe, bands):
-    """``band_edge_motion`` of Algorithm B: its per-line motion phase
-    ``e^{−jk₀ cos φ_d ψ(x', r)}`` multiplies one Doppler band's echo on the pulses, and the
-    band's transform back to ξ wraps what that moves past the band's edge to its other
-    edge, where the range synthesis gives it the wrong band's migration.
-
-    Predicted NMSE ``K · S · Δξ``: ``S`` the recorded echo energy within
-    ``Δξ = k₀ cos φ_d max|∂ψ/∂x'|`` of an edge between two synthesised bands
-    (``_extent.band_edge_spill``), ``K = 10 m`` measured: the airborne set, a target whose
-    beam-centre crossing is 172 m before a 512-pulse window (recorded through bands 0 and
-    −1), Δy of 0.02–0.3 m rms, squint 5–20°, L = 0.5–2 m, PRF 250–400 Hz: within 1.5 dB
-    of the raw NMSE against the exact model where it dominates (10°, PRF 250 Hz: 0.3 m
-    −15.1 dB measured, −14.5 dB predicted; 0.1 m −23.6 / −24.1 dB), above it elsewhere
-    (5°, L = 0.6 m: −21.1 / −11.9 dB); at 30° it fell 4–16 dB short, where ``epsilon_12``
-    warns. The error grows as Δξ², not as the energy moved: part of what crosses stays
-    near its place. Threshold −28 dB."""
-    _, _, rs, hs, dy, dz, _, _, height = lobe.pairs  # the scene's samples, the motion
-    los = np.asarray(geometry.line_of_sight_deviation(
-        dy[:, None], dz[:, None], rs[None, :], hs[None, :], height))
-    psi = los - lobe.delta_r  # (pulse, sample) ψ = δr_xr − δr
-    slope = np.max(np.abs(np.gradient(psi, lobe.dx, axis=0))) if psi.shape[0] > 1 else 0.0
-    spread = lobe.k0 * math.cos(lobe.squint) * float(slope)
-    value = BAND_EDGE_SCALE * spread * extent.band_edge_spill(radar, scene, acquisition,
-                                                             bands, spread)
-    return Budget("band_edge_motion", value, BAND_EDGE_THRESHOLD,
-                  f"predicted NMSE of the echo the per-line motion phase (Doppler spread "
-                  f"{spread:.3g} rad/m) moves across the edges between Doppler bands")
 
 
 class Fourier2D(AbstractFourierSimulator):
