@@ -22,7 +22,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import sarjax as sj
@@ -552,6 +552,64 @@ def test_no_warning_means_accurate_any_antenna(method, case):
 @given(case=antenna_scenes())
 def test_no_warning_means_accurate_any_antenna_many(method, case):
     _check_antenna(method, case)
+
+
+# ---- any chirp: 1–20 µs, 10–49.5 MHz of the 50 MHz sampling rate ---------------------------
+
+
+@st.composite
+def chirp_scenes(draw):
+    """(chirp duration τ [s], bandwidth Δf [Hz], squint [deg], x, r, motion rms [m]): the
+    airborne set with another chirp (from 1 µs, whose hard edges ring through the whole
+    echo, to 20 µs, four times the range window; Δf up to 0.99 f_s, where the chirp's
+    spectrum aliases past ±f_s/2), a point target centred, inside, at the window's edge or
+    beyond it in azimuth, and inside the range window or within half a chirp of either
+    of its ends, on a straight track or with 2 cm deviations."""
+    tau = draw(st.sampled_from([1e-6, 2e-6, 5e-6, 10e-6, 20e-6]))
+    bandwidth = draw(st.sampled_from([10e6, 30e6, 45e6, 48e6, 49.5e6]))
+    squint = draw(st.sampled_from([0.0, 5.0, 10.0, 20.0]))
+    centre = _centre_range(squint)
+    far = NEAR + NUM_RANGE * 2.99792458
+    half_chirp = min(2.99792458e8 * tau / 2, 600.0)
+    r = draw(st.one_of(st.floats(centre - 300.0, centre + 300.0),
+                       st.sampled_from([NEAR, far]).flatmap(
+                           lambda end: st.floats(end - half_chirp, end + half_chirp))))
+    r = max(r, HEIGHT + 100.0)
+    half = NUM_PULSES * 0.25 / 2
+    offset = draw(st.one_of(st.just(0.0), st.floats(-half, half),
+                            st.floats(half, half + 240.0)))
+    x = r * np.tan(np.deg2rad(squint)) + offset * draw(st.sampled_from([-1.0, 1.0]))
+    rms = draw(st.sampled_from([0.0, 0.0, 0.02]))
+    return tau, bandwidth, squint, x, r, rms
+
+
+def _check_chirp(method, case):
+    tau, bandwidth, squint, x, r, rms = case
+    radar = sj.presets.airborne_xband(
+        chirp_duration=tau, bandwidth=bandwidth, num_pulses=NUM_PULSES, num_range=NUM_RANGE,
+        near_range=NEAR, squint=np.deg2rad(squint))
+    scene = sj.PointTargets(azimuth=[x], range=[r])
+    return _check_scene(method, radar, scene, _motion(rms, radar) if rms else None,
+                        _centre_range(squint), case)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=1, **SETTINGS)
+@given(case=chirp_scenes())
+# valid for every method: a 2 µs chirp of 30 MHz whose target lies 100 m past the far end
+@example(case=(2e-6, 30e6, 0.0, 10.0, NEAR + NUM_RANGE * 2.99792458 + 100.0, 0.0))
+# B valid (the others warn or refuse): 20 µs, Δf = 0.99 f_s, 10°, the near end, 2 cm
+@example(case=(20e-6, 49.5e6, 10.0, 930.0, NEAR + 50.0, 0.02))
+def test_no_warning_means_accurate_any_chirp(method, case):
+    _check_chirp(method, case)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=30, **SETTINGS)
+@given(case=chirp_scenes())
+def test_no_warning_means_accurate_any_chirp_many(method, case):
+    _check_chirp(method, case)
 
 
 @pytest.mark.parametrize("method", ["fourier_2d", "chirp_scaling", "high_speed"])
