@@ -612,6 +612,19 @@ def test_no_warning_means_accurate_any_chirp_many(method, case):
     _check_chirp(method, case)
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "budgets that each hold add up: chirp_edges at 0.56 of its threshold (a predicted "
+    "-28.7 dB) and epsilon_13 at 0.996 of its (0.0996 rad, about -26 dB alone) give "
+    "-24.2 dB without a warning; there is no joint rule for the budgets yet"))
+def test_budgets_that_each_hold_but_add_up_warn():
+    """Algorithm A, a 1 µs chirp of 10 MHz at 20° squint, the target at beam centre, 2 cm
+    deviations (a fresh-seed draw of ``chirp_scenes``): no budget is violated and the raw
+    NMSE against the exact model is −24.2 dB. Without the motion every method gives
+    −28.4 dB (the chirp's ends, as ``chirp_edges`` predicts); B with the motion −28.4 dB.
+    Fails until a joint rule warns."""
+    _check_chirp("small_deviation", (1e-6, 10e6, 20.0, 1851.152611477905, 5086.0, 0.02))
+
+
 @pytest.mark.parametrize("method", ["fourier_2d", "chirp_scaling", "high_speed"])
 def test_a_narrow_beams_flank_warns_azimuth_amplitude(method):
     """A 4 m antenna (footprint 40 m at 5140 m) whose target lies 35 m past the window's
