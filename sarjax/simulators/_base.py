@@ -137,8 +137,10 @@ class AbstractSimulator(eqx.Module):
                                                 getattr(self, "range_aliases", 0))
         approximations, pointing_ratio = self.approximation_budgets(
             radar, scene, motion, acquisition)
-        return _budgets.Validity(self.names[0], tuple(approximations) + tuple(found),
-                                 pointing_ratio)
+        found = tuple(approximations) + tuple(found)
+        if not self.exact:  # errors that each hold can add up
+            found += (_budgets.combined_budget(found),)
+        return _budgets.Validity(self.names[0], found, pointing_ratio)
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         """Workspace of one realization [bytes] beyond the output and inputs (default:
