@@ -103,7 +103,10 @@ class Validity:
 
 # ---- the budgets together ----------------------------------------------------------------
 
-COMBINED_THRESHOLD = 10 ** -2.5  # −25 dB: the fidelity every valid run must reach
+# −26 dB: 1 dB under the −25 dB fidelity every valid run must reach, for the prediction's
+# own error (0.8 dB on a fresh-seed draw: A, 1 µs chirp, 10° squint, 2 cm: −25.7 dB
+# predicted, −24.9 dB measured), as chirp_edges' threshold alone
+COMBINED_THRESHOLD = 10 ** -2.6
 # NMSE per rad² of a budget that is a phase maximum: the largest of its measured ratios
 # (the raw NMSE against the exact model over the maximum's square). Algorithm A's
 # epsilon_13 alone, 5 µs chirps, 0–20° squint, 1.5–3 cm: −8.7 to −12.9 dB (0.11–0.80 rad);
@@ -118,7 +121,7 @@ _MAXIMUM_PHASE_BUDGETS = ("epsilon_motion", "epsilon_11", "epsilon_12", "epsilon
 
 
 def combined_budget(budgets) -> Budget:
-    """``combined_error``: the raw NMSE the budgets predict together, against −25 dB.
+    """``combined_error``: the raw NMSE the budgets predict together, against −26 dB.
     Budgets that each hold can add up: a 1 µs chirp's ends (``chirp_edges`` at 0.56 of
     its threshold, −28.7 dB) and Algorithm A's ``epsilon_13`` at 0.996 of its (0.0996 rad)
     gave −24.2 dB at 20° squint, with no budget violated. Each error's NMSE is added: a
