@@ -588,20 +588,18 @@ def _estimate(focuser, design_y, design_z, start, *, objective, windows, max_tar
     t0 = time.perf_counter()
     previous_half = num_pulses
     for i, half_m in enumerate(windows):
-        half = min(max(int(round(half_m / spacing)), 2), previous_half)
-        power = np.abs(np.asarray(image)) ** 2
-        rows, cols = _pga.select_targets(power, num_pulses, segment=segment,
-                                         max_targets=gradient_targets, min_ratio=min_ratio,
-                                         exclusion=half)
-        if rows.size < 3:
+        rows, cols, half = _dominant_blur(
+            np.abs(np.asarray(image)) ** 2, num_pulses,
+            min(max(int(round(half_m / spacing)), 2), previous_half),
+            segment=segment, gradient_targets=gradient_targets, min_ratio=min_ratio,
+            min_window=min_window, spacing=spacing)
+        if half is None:
             warnings.warn(f"autofocus: {rows.size} dominant scatterers (peak ≥ {min_ratio:g}× "
                           f"the range bin's median) in iteration {i}: the phase-gradient "
                           "stage stops; the estimate may be poor", AutofocusWarning,
                           stacklevel=3)
             break
-        half = previous_half = _pga.blur_half_width(
-            power, rows, cols, half, average="median",
-            floor=max(int(round(min_window / spacing)), 2))
+        previous_half = half
         z = np.asarray(_pga.target_products(focuser, phase, jnp.asarray(rows),
                                             jnp.asarray(cols), jnp.asarray(half)))
         dy_c, dz_c = _pga.motion_increment(z, rows, focuser, design_y, current=(c_y, c_z))
@@ -650,18 +648,30 @@ def _start_blur(focuser, design_y, design_z, start, *, half_m, segment, gradient
     phase-gradient stage's first iteration measures it (``_pga.blur_half_width`` of the
     dominant scatterers' lines within ``half_m``); None with fewer than 3 of them."""
     spacing = float(focuser.radar.azimuth_spacing)
-    num_pulses = design_y.shape[0]
     phase = _los_phase(focuser, jnp.asarray(design_y @ start[0]),
                        jnp.asarray(design_z @ start[1]))
-    power = np.abs(np.asarray(_pga.jax_image(focuser, phase))) ** 2
-    half = max(int(round(half_m / spacing)), 2)
+    _, _, half = _dominant_blur(
+        np.abs(np.asarray(_pga.jax_image(focuser, phase))) ** 2, design_y.shape[0],
+        max(int(round(half_m / spacing)), 2), segment=segment,
+        gradient_targets=gradient_targets, min_ratio=min_ratio, min_window=min_window,
+        spacing=spacing)
+    return None if half is None else spacing * half
+
+
+def _dominant_blur(power, num_pulses, cap, *, segment, gradient_targets, min_ratio,
+                   min_window, spacing):
+    """(rows, cols, half-width [columns]) of the dominant scatterers of an image's
+    ``power`` (range, n_fft; ``num_pulses`` columns hold pulses) and their blur
+    (``_pga.blur_half_width``, the median line, at most ``cap`` columns, at least
+    ``min_window`` [m]); half-width None with fewer than 3 of them. What each
+    phase-gradient iteration measures first."""
     rows, cols = _pga.select_targets(power, num_pulses, segment=segment,
                                      max_targets=gradient_targets, min_ratio=min_ratio,
-                                     exclusion=half)
+                                     exclusion=cap)
     if rows.size < 3:
-        return None
-    return spacing * _pga.blur_half_width(power, rows, cols, half, average="median",
-                                          floor=max(int(round(min_window / spacing)), 2))
+        return rows, cols, None
+    return rows, cols, _pga.blur_half_width(power, rows, cols, cap, average="median",
+                                            floor=max(int(round(min_window / spacing)), 2))
 
 
 def _choose(radar, raw, focuser, profiles, settings, tolerance):
