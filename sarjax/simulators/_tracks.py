@@ -37,6 +37,11 @@ Budgets over the pulses within the squinted main lobe (``_budgets.LobeGeometry``
   beam centre, for each cell's own (``LobeGeometry.height_under_beam_rms``); with alias
   bands, ``band_edge_motion`` (:func:`band_edge_budget`, a track's ``band_budgets``): the
   echo its per-line motion phase moves across the edges between them.
+* every track with a deviation: ``recorded_phase_error``, the raw NMSE of its phase
+  error (straight: ``k₀ (R − R_n)``; small: ``k₀ (R − R_n − c_d (δr + ψ(x_c, r)))``;
+  moderate: ``k₀ (R − R_n − δr_xr r/R_n)``) over every recorded pair, sidelobes
+  included, weighted by the echo (``_budgets.recorded_phase_budget``): the maxima above
+  see the main lobe only.
 * every track: the pointing expansion of its order (``_budgets.pointing_budget``).
 """
 
@@ -61,9 +66,12 @@ from ._budgets import (
     Budget,
     LobeGeometry,
     azimuth_budgets,
+    beam_coordinate,
     lobe_pairs,
     lobe_peak,
     pointing_budget,
+    recorded_mean_square,
+    recorded_phase_budget,
 )
 
 
@@ -128,9 +136,13 @@ class StraightTrack(AbstractTrack):
         return 0
 
     def phase_budgets(self, sim, lobe):
-        value = 0.0 if lobe.still else lobe.k0 * lobe.line_of_sight_peak()
-        return [Budget("epsilon_motion", value, PHASE_THRESHOLD,
-                       "(4π/λ) max|δr_xr|: the deviation is not modelled")]
+        if lobe.still:
+            return [Budget("epsilon_motion", 0.0, PHASE_THRESHOLD,
+                           "(4π/λ) max|δr_xr|: the deviation is not modelled")]
+        peak, error, recorded = lobe.line_of_sight_errors()
+        return [Budget("epsilon_motion", lobe.k0 * peak, PHASE_THRESHOLD,
+                       "(4π/λ) max|δr_xr|: the deviation is not modelled"),
+                recorded_phase_budget(error, recorded, "k₀ (R − R_n)")]
 
 
 class AbstractStraightTrackSimulator(AbstractSimulator):
@@ -186,12 +198,16 @@ def straight_track_budgets(radar, scene, motion, acquisition):
 
 @_exported.cached
 @eqx.filter_jit
-def _small_deviation_maxima(pairs, delta_r, beam_pulse, c_d):
+def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constants):
     """Algorithm A's three lobe maxima over the (pulse, scatterer) pairs, in one fused
     program: max|R − R_n − cos φ_d δr_xr|, max(|ψ|/c + |δr||1/c − 1/c_d|) and
     max|ψ(x', r) − ψ(x_c, r)| (``c = r/R_n``; ``beam_pulse`` the beam-centre pulse of
     each scatterer in pulse spacings from the first, ψ interpolated linearly there, edge
-    values outside; the pairs from :func:`~._budgets.lobe_pairs`)."""
+    values outside, as the simulator has it; the pairs from
+    :func:`~._budgets.lobe_pairs`); then :func:`~._budgets.recorded_mean_square` of A's
+    phase error ``k₀ (R − R_n − cos φ_d (δr + ψ(x_c, r)))``, the first and the third
+    terms signed and added (``constants``: k₀, cos φ_d)."""
+    k0, c_d = constants[0], constants[1]
     along, lobe, los = lobe_pairs(pairs)
     rs = pairs[2][None, :]
     nominal = jnp.sqrt(rs**2 + along**2)
@@ -204,10 +220,13 @@ def _small_deviation_maxima(pairs, delta_r, beam_pulse, c_d):
     t = position - i0
     cols = jnp.arange(psi.shape[1])
     psi_beam = psi[i0, cols] * (1 - t) + psi[jnp.minimum(i0 + 1, n - 1), cols] * t
-    return (lobe_peak(lobe, exact - nominal - c_d * los),
+    coupling, variation = exact - nominal - c_d * los, psi - psi_beam[None, :]
+    return (lobe_peak(lobe, coupling),
             lobe_peak(lobe, jnp.abs(psi) / cos_look
                        + jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)),
-            lobe_peak(lobe, psi - psi_beam[None, :]))
+            lobe_peak(lobe, variation)) + recorded_mean_square(
+                pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power[None, :],
+                k0 * (coupling + c_d * variation))
 
 
 class SmallDeviationTrack(AbstractTrack):
@@ -230,9 +249,10 @@ class SmallDeviationTrack(AbstractTrack):
         c_d = math.cos(lobe.squint)
         # ψ at the beam-centre pulse x_c = x − r tan φ_d of each scatterer
         x_beam = lobe.xs - lobe.rs * math.tan(lobe.squint)
-        coupling, envelope, variation = (float(v) for v in _small_deviation_maxima(
-            lobe.pairs, lobe.delta_r, np.asarray((x_beam - lobe.x_p[0]) / lobe.dx),
-            np.asarray(c_d)))
+        coupling, envelope, variation, error, recorded = (
+            float(v) for v in _small_deviation_maxima(
+                lobe.pairs, lobe.pattern, lobe.power, lobe.delta_r,
+                np.asarray((x_beam - lobe.x_p[0]) / lobe.dx), np.asarray([lobe.k0, c_d])))
         return [
             Budget("epsilon_11", lobe.k0 * coupling,
                    PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"),
@@ -240,16 +260,19 @@ class SmallDeviationTrack(AbstractTrack):
                    "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)"),
             Budget("epsilon_13", lobe.k0 * c_d * variation, PHASE_THRESHOLD,
                    "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed eq. 13; seed 002 eq. 10)"),
+            recorded_phase_budget(error, recorded, "k₀ (R − R_n − cos φ_d (δr + ψ(x_c, r)))"),
         ]
 
 
 @_exported.cached
 @eqx.filter_jit
-def _moderate_deviation_maxima(pairs, delta_r, constants):
+def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
     """Algorithm B's lobe maxima over the (pulse, scatterer) pairs, in one program:
     max|R − R_n − δr_xr c|, the spread max|δr_xr − mean over pulses|,
     max|R − R_n − cos φ_d δr_xr|, and the envelope terms' maxima (corrected, uncorrected,
-    their sum); ``c = r/R_n``, slopes along the pulses as ``numpy.gradient``. Blocks of
+    their sum); ``c = r/R_n``, slopes along the pulses as ``numpy.gradient``; then the
+    sums of :func:`~._budgets.recorded_mean_square` of B's phase error
+    ``k₀ (R − R_n − δr_xr c)`` (``power`` |γ|² (scatterer,)). Blocks of
     scatterers at a time (all pulses each: the slopes and the mean are along them), so
     that the dozen intermediates stay in cache. The pairs from
     :func:`~._budgets.lobe_pairs`."""
@@ -268,9 +291,11 @@ def _moderate_deviation_maxima(pairs, delta_r, constants):
 
     in_lobe = jnp.pad(lobe, ((0, 0), (0, fill)))  # padded scatterers: outside the lobe
     in_lobe = jnp.moveaxis(in_lobe.reshape(n_pulses, blocks, width), 1, 0)
+    # padded scatterers: no echo
+    in_power = jnp.pad(power, (0, fill)).reshape(blocks, 1, width)
 
     def block(args):
-        along, rs, los, lobe = args
+        along, rs, los, lobe, power = args
         nominal = jnp.sqrt(rs**2 + along**2)
         exact = rs + geometry.range_offset(along, rs, los)
         cos_look = rs / nominal
@@ -292,15 +317,18 @@ def _moderate_deviation_maxima(pairs, delta_r, constants):
         uncorrected = (jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)
                        + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2)
                        + higher)
+        rest = exact - nominal - los * cos_look
+        recorded = recorded_mean_square(
+            pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power, k0 * rest)
         return jnp.stack([
-            lobe_peak(lobe, exact - nominal - los * cos_look),
+            lobe_peak(lobe, rest),
             lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
             lobe_peak(lobe, exact - nominal - c_d * los),
             lobe_peak(lobe, corrected), lobe_peak(lobe, uncorrected),
-            lobe_peak(lobe, corrected + uncorrected)])
+            lobe_peak(lobe, corrected + uncorrected)]), jnp.stack(recorded)
 
-    peaks = jax.lax.map(block, (split(along), split(rs), split(los), in_lobe))
-    return tuple(jnp.max(peaks, axis=0))
+    peaks, sums = jax.lax.map(block, (split(along), split(rs), split(los), in_lobe, in_power))
+    return tuple(jnp.max(peaks, axis=0)) + tuple(jnp.sum(sums, axis=0))
 
 
 _SCATTERER_BLOCK = 128  # scatterers per block of _moderate_deviation_maxima (fastest of 8–1024)
@@ -472,9 +500,10 @@ class ModerateDeviationTrack(AbstractTrack):
         squint = lobe.squint
         c_d = math.cos(squint)
         k0, dx = lobe.k0, lobe.dx
-        maxima = _moderate_deviation_maxima(lobe.pairs, lobe.delta_r,
-                                            np.asarray([k0, c_d, dx]))
-        rest, spread, straight, corrected, uncorrected, both = (float(v) for v in maxima)
+        maxima = _moderate_deviation_maxima(lobe.pairs, lobe.pattern, lobe.power,
+                                            lobe.delta_r, np.asarray([k0, c_d, dx]))
+        (rest, spread, straight, corrected, uncorrected, both, error,
+         recorded) = (float(v) for v in maxima)
         order = self.coupling_order(sim, lobe.radar, lobe.line_of_sight_span)
         if order:
             value = (coupling_alpha_max(lobe.radar) * spread) ** (order + 1) / math.factorial(
@@ -495,4 +524,5 @@ class ModerateDeviationTrack(AbstractTrack):
         budgets.append(Budget("epsilon_height", lobe.height_under_beam_rms(), HEIGHT_THRESHOLD,
                               "rms phase of one height per range line and pulse (the "
                               "grid's under the beam centre) for each cell's own"))
+        budgets.append(recorded_phase_budget(error, recorded, "k₀ (R − R_n − δr_xr r/R_n)"))
         return budgets
