@@ -43,14 +43,27 @@ HEIGHT_THRESHOLD = 0.05  # [rad] rms, energy-weighted: an NMSE of −26 dB
 PATTERN_THRESHOLD = 0.02  # pattern-expansion error (0.046 at δ_m = 0.23 λ/L was inaccurate)
 
 
+# what a budget's value says of the raw data's error (``Budget.error``)
+NMSE = "nmse"  # the raw NMSE it predicts
+RMS_PHASE = "rms phase"  # an energy-weighted rms phase [rad]: its square is the NMSE
+PHASE_MAXIMUM = "phase maximum"  # a phase maximum [rad] over the main lobe
+# the raw NMSE of the same errors as the phase maxima, over the whole recorded echo
+RECORDED_PHASE = "recorded phase"
+
+
 @dataclass(frozen=True)
 class Budget:
-    """One validity budget: ``value`` and ``threshold`` in radians (or relative)."""
+    """One validity budget: ``value`` and ``threshold`` in radians (or relative).
+
+    ``error``: what the value says of the data's error (:data:`NMSE`, :data:`RMS_PHASE`,
+    :data:`PHASE_MAXIMUM`, :data:`RECORDED_PHASE`), from which ``combined_error`` adds
+    the errors; None for a budget that is not an error of the data (a grid's extent)."""
 
     name: str
     value: float
     threshold: float
     meaning: str
+    error: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -113,13 +126,6 @@ COMBINED_THRESHOLD = 10 ** -2.6
 # B's epsilon_12: −15 to −18 dB; A's epsilon_13 at 0.0996 rad beside a 1 µs chirp's ends
 # (the case that set it): −6.3 dB, its NMSE less that of chirp_edges
 PHASE_MAXIMUM_NMSE = 10 ** -0.6
-# the budgets whose value is a predicted NMSE, an rms phase, or a phase maximum
-_NMSE_BUDGETS = ("chirp_edges", "azimuth_aliases", "azimuth_amplitude", "band_edge_motion",
-                 "complex64_rounding")
-_RMS_PHASE_BUDGETS = ("epsilon_height",)
-_MAXIMUM_PHASE_BUDGETS = ("epsilon_motion", "epsilon_11", "epsilon_12", "epsilon_13")
-# the same phase errors' NMSE over the recorded echo (main lobe and sidelobes)
-RECORDED_PHASE_BUDGET = "recorded_phase_error"
 
 
 def recorded_phase_budget(error, recorded, meaning) -> Budget:
@@ -133,8 +139,9 @@ def recorded_phase_budget(error, recorded, meaning) -> Budget:
     (A, 1 µs chirp, 10°/20° squint, 2 cm: −28.2/−26.4 dB predicted, −27.2/−26.3 dB
     measured)."""
     value = float(error) / float(recorded) if float(recorded) > 0 else 0.0
-    return Budget(RECORDED_PHASE_BUDGET, value, COMBINED_THRESHOLD,
-                  f"raw NMSE of {meaning} over the recorded echo, sidelobes included")
+    return Budget("recorded_phase_error", value, COMBINED_THRESHOLD,
+                  f"raw NMSE of {meaning} over the recorded echo, sidelobes included",
+                  error=RECORDED_PHASE)
 
 
 def combined_budget(budgets) -> Budget:
@@ -146,21 +153,16 @@ def combined_budget(budgets) -> Budget:
     :data:`PHASE_MAXIMUM_NMSE` (the largest measured ratio; for that case the sum is
     −24.2 dB), or in their place ``recorded_phase_error`` where it is larger (the same
     errors over the echo the window records, sidelobes included)."""
-    shares = {}
-    for b in budgets:
-        if b.name in _NMSE_BUDGETS or b.name == RECORDED_PHASE_BUDGET:
-            shares[b.name] = float(b.value)
-        elif b.name in _RMS_PHASE_BUDGETS:
-            shares[b.name] = float(b.value) ** 2
-        elif b.name in _MAXIMUM_PHASE_BUDGETS:
-            shares[b.name] = PHASE_MAXIMUM_NMSE * float(b.value) ** 2
-    # the phase maxima and recorded_phase_error predict the same errors: the larger counts
-    maxima = [name for name in shares if name in _MAXIMUM_PHASE_BUDGETS]
-    recorded = shares.pop(RECORDED_PHASE_BUDGET, 0.0)
-    if recorded > sum(shares[name] for name in maxima):
-        for name in maxima:
-            del shares[name]
-        shares[RECORDED_PHASE_BUDGET] = recorded
+    to_nmse = {NMSE: lambda v: v, RMS_PHASE: lambda v: v**2,
+               PHASE_MAXIMUM: lambda v: PHASE_MAXIMUM_NMSE * v**2, RECORDED_PHASE: lambda v: v}
+    shares = {b.name: to_nmse[b.error](float(b.value)) for b in budgets if b.error}
+    # the phase maxima and the recorded phase error predict the same errors: the larger counts
+    maxima = [b.name for b in budgets if b.error == PHASE_MAXIMUM]
+    recorded = [b.name for b in budgets if b.error == RECORDED_PHASE]
+    dropped = (maxima if sum(shares[name] for name in recorded)
+               > sum(shares[name] for name in maxima) else recorded)
+    for name in dropped:
+        del shares[name]
     total = sum(shares.values())
     parts = [f"{name} {10 * math.log10(share):.1f} dB" for name, share in shares.items()
              if share > 0.1 * COMBINED_THRESHOLD]
@@ -403,7 +405,7 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
     return (Budget("chirp_edges", value, CHIRP_EDGE_THRESHOLD,
                    f"raw error of the hard-edged chirp's recorded ends, relative to the "
                    f"recorded echo (Gibbs residual of {2 * int(aliases) + 1} summed range "
-                   "spectra)"),)
+                   "spectra)", error=NMSE),)
 
 
 # pulses and scatterers of the chirp-edge estimate (at most): an energy-weighted mean over
@@ -508,7 +510,7 @@ def azimuth_budgets(support, grid) -> tuple[Budget, ...]:
     return (
         Budget("azimuth_aliases", support.left_out, AMBIGUITY_THRESHOLD,
                f"echo energy outside the {2 * support.bands + 1} synthesised Doppler "
-               "band(s) (azimuth ambiguities) and rung into the window by their cut"),
+               "band(s) (azimuth ambiguities) and rung into the window by their cut", error=NMSE),
         Budget("azimuth_window", grid.wrapped, 0.0,
                "fraction of scatterers whose echo support the azimuth grid does not hold "
                "(it wraps)"),
@@ -520,7 +522,7 @@ def azimuth_budgets(support, grid) -> tuple[Budget, ...]:
         Budget("azimuth_amplitude", support.amplitude, AMPLITUDE_THRESHOLD,
                "predicted NMSE of the stationary-phase synthesis's amplitude: the "
                "pattern's curvature against the azimuth chirp's, (L/λ)² cos φ_d / "
-               "(2 k₀ r) · W²″(u), over the pattern arguments the window records"),
+               "(2 k₀ r) · W²″(u), over the pattern arguments the window records", error=NMSE),
     )
 
 
@@ -543,7 +545,7 @@ def rounding_budgets(support, dtype) -> tuple[Budget, ...]:
                    ROUNDING_THRESHOLD,
                    f"predicted NMSE of complex64 rounding against complex128: the "
                    f"synthesised echo holds {support.synthesised:.3g}× the energy the "
-                   f"window records"),)
+                   f"window records", error=NMSE),)
 
 
 # ---- the squinted main lobe ----------------------------------------------------------------

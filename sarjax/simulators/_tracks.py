@@ -62,7 +62,10 @@ from . import _fourier_engine as engine
 from ._base import AbstractSimulator
 from ._budgets import (
     HEIGHT_THRESHOLD,
+    NMSE,
+    PHASE_MAXIMUM,
     PHASE_THRESHOLD,
+    RMS_PHASE,
     Budget,
     LobeGeometry,
     azimuth_budgets,
@@ -136,13 +139,13 @@ class StraightTrack(AbstractTrack):
         return 0
 
     def phase_budgets(self, sim, lobe):
-        if lobe.still:
-            return [Budget("epsilon_motion", 0.0, PHASE_THRESHOLD,
-                           "(4π/λ) max|δr_xr|: the deviation is not modelled")]
-        peak, error, recorded = lobe.line_of_sight_errors()
-        return [Budget("epsilon_motion", lobe.k0 * peak, PHASE_THRESHOLD,
-                       "(4π/λ) max|δr_xr|: the deviation is not modelled"),
-                recorded_phase_budget(error, recorded, "k₀ (R − R_n)")]
+        peak, error, recorded = (0.0, 0.0, 0.0) if lobe.still else lobe.line_of_sight_errors()
+        budgets = [Budget("epsilon_motion", lobe.k0 * peak, PHASE_THRESHOLD,
+                          "(4π/λ) max|δr_xr|: the deviation is not modelled",
+                          error=PHASE_MAXIMUM)]
+        if not lobe.still:
+            budgets.append(recorded_phase_budget(error, recorded, "k₀ (R − R_n)"))
+        return budgets
 
 
 class AbstractStraightTrackSimulator(AbstractSimulator):
@@ -254,12 +257,13 @@ class SmallDeviationTrack(AbstractTrack):
                 lobe.pairs, lobe.pattern, lobe.power, lobe.delta_r,
                 np.asarray((x_beam - lobe.x_p[0]) / lobe.dx), np.asarray([lobe.k0, c_d])))
         return [
-            Budget("epsilon_11", lobe.k0 * coupling,
-                   PHASE_THRESHOLD, "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"),
+            Budget("epsilon_11", lobe.k0 * coupling, PHASE_THRESHOLD,
+                   "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)", error=PHASE_MAXIMUM),
             Budget("epsilon_12", lobe.eta_max * envelope, PHASE_THRESHOLD,
-                   "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)"),
+                   "η_max max(|ψ|/c + |δr||1/c − 1/c_d|) (seed eq. 12)", error=PHASE_MAXIMUM),
             Budget("epsilon_13", lobe.k0 * c_d * variation, PHASE_THRESHOLD,
-                   "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed eq. 13; seed 002 eq. 10)"),
+                   "(4π/λ) cos φ_d max|ψ(x', r) − ψ(x_c, r)| (seed eq. 13; seed 002 eq. 10)",
+                   error=PHASE_MAXIMUM),
             recorded_phase_budget(error, recorded, "k₀ (R − R_n − cos φ_d (δr + ψ(x_c, r)))"),
         ]
 
@@ -375,7 +379,7 @@ def band_edge_budget(radar, scene, acquisition, lobe, bands):
                                                              bands, spread)
     return Budget("band_edge_motion", value, BAND_EDGE_THRESHOLD,
                   f"predicted NMSE of the echo the per-line motion phase (Doppler spread "
-                  f"{spread:.3g} rad/m) moves across the edges between Doppler bands")
+                  f"{spread:.3g} rad/m) moves across the edges between Doppler bands", error=NMSE)
 
 
 class ModerateDeviationTrack(AbstractTrack):
@@ -512,7 +516,7 @@ class ModerateDeviationTrack(AbstractTrack):
         else:
             value = k0 * straight
             meaning = "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"
-        budgets = [Budget("epsilon_11", value, PHASE_THRESHOLD, meaning)]
+        budgets = [Budget("epsilon_11", value, PHASE_THRESHOLD, meaning, error=PHASE_MAXIMUM)]
         eta_max = lobe.eta_max
         if sim.envelope_correction:
             value = (eta_max * corrected) ** 2 / 2 + eta_max * uncorrected
@@ -520,9 +524,9 @@ class ModerateDeviationTrack(AbstractTrack):
         else:
             value = eta_max * both
             meaning = "η_max max(envelope terms) (seed eq. 12; seed 002 eq. 11)"
-        budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning))
+        budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning, error=PHASE_MAXIMUM))
         budgets.append(Budget("epsilon_height", lobe.height_under_beam_rms(), HEIGHT_THRESHOLD,
                               "rms phase of one height per range line and pulse (the "
-                              "grid's under the beam centre) for each cell's own"))
+                              "grid's under the beam centre) for each cell's own", error=RMS_PHASE))
         budgets.append(recorded_phase_budget(error, recorded, "k₀ (R − R_n − δr_xr r/R_n)"))
         return budgets
