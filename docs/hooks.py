@@ -182,7 +182,7 @@ def thresholds_page() -> str:
         ("`azimuth_sidelobes`", "SIDELOBE_THRESHOLD", f"{b.SIDELOBE_THRESHOLD:g}"),
         ("`azimuth_amplitude`", "AMPLITUDE_THRESHOLD", f"{b.AMPLITUDE_THRESHOLD:.3g}"),
         ("`range_window`", "ALL_MISSING", "1 (only a window that records nothing)"),
-        ("`combined_error`, `recorded_phase_error`", "COMBINED_THRESHOLD",
+        ("`combined_error`, `recorded_phase_error`, `doppler_migration`", "COMBINED_THRESHOLD",
          f"{b.COMBINED_THRESHOLD:.3g}"),
     ]
     rows = ["| budget | constant in `sarjax.simulators._budgets` | threshold |",

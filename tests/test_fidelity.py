@@ -235,6 +235,74 @@ def test_no_warning_means_accurate_on_grids_many(method, case):
     _check_grid(method, case)
 
 
+TRACK_METHODS = ("fourier_2d", "small_deviation", "moderate_deviation")
+
+
+@st.composite
+def deviation_scenes(draw):
+    """(squint [deg], x, r [m], profile, rms [m], scale [window lengths], horizontal
+    share, seed): one target in or beside the beam on a track whose deviation is not the
+    two slow sinusoids of ``_motion``: a sinusoid of period 0.05–3 windows, a linear
+    drift (a cross-track velocity), a parabola, smoothed noise of correlation length
+    0.05–3 windows (a gust) or a smoothed step, from 2 mm to 0.3 m rms, split at random
+    between Δy and Δz."""
+    squint = draw(st.sampled_from([0.0, 0.0, 10.0, 20.0]))
+    centre = _centre_range(squint)
+    r = draw(st.floats(centre - 300.0, centre + 300.0))
+    offset = draw(st.one_of(st.floats(-60.0, 60.0), st.floats(60.0, 200.0)))
+    x = r * np.tan(np.deg2rad(squint)) + offset * draw(st.sampled_from([-1.0, 1.0]))
+    profile = draw(st.sampled_from(["sine", "drift", "parabola", "noise", "step"]))
+    rms = draw(st.sampled_from([0.002, 0.005, 0.01, 0.03, 0.1, 0.3]))
+    scale = draw(st.sampled_from([0.05, 0.2, 0.5, 1.0, 3.0]))
+    return (squint, x, r, profile, rms, scale, draw(st.floats(0.0, 1.0)),
+            draw(st.integers(0, 999)))
+
+
+def _deviation(profile, rms, scale, seed, n):
+    """A deviation profile (``deviation_scenes``) of ``rms`` [m] over ``n`` pulses."""
+    t = np.linspace(-0.5, 0.5, n)
+    rng = np.random.default_rng(seed)
+    if profile == "sine":
+        v = np.sin(2 * np.pi * t / scale + rng.uniform(0, 2 * np.pi))
+    elif profile == "drift":
+        v = t
+    elif profile == "parabola":
+        v = t**2 - 1 / 12
+    elif profile == "noise":
+        k = max(int(scale * n / 8), 1)
+        v = np.convolve(rng.normal(size=n + 4 * k), np.hanning(2 * k + 1), "same")[2 * k:-2 * k]
+    else:
+        k = max(int(scale * n / 20), 1)
+        step = np.where(t > rng.uniform(-0.3, 0.3), 1.0, -1.0)
+        v = np.convolve(np.pad(step, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
+    return rms * v / np.sqrt(np.mean(v**2))
+
+
+def _check_deviation(method, case):
+    squint, x, r, profile, rms, scale, share, seed = case
+    radar = _radar(squint)
+    v = _deviation(profile, rms, scale, seed, NUM_PULSES)
+    motion = sj.Motion(horizontal=v * np.cos(share * np.pi / 2),
+                       vertical=v * np.sin(share * np.pi / 2))
+    return _check_scene(method, radar, sj.PointTargets(azimuth=[x], range=[r]), motion,
+                        _centre_range(squint), case)
+
+
+@pytest.mark.parametrize("method", TRACK_METHODS)
+@settings(max_examples=1, **SETTINGS)
+@given(case=deviation_scenes())
+def test_no_warning_means_accurate_any_deviation(method, case):
+    _check_deviation(method, case)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", TRACK_METHODS)
+@settings(max_examples=40, **SETTINGS)
+@given(case=deviation_scenes())
+def test_no_warning_means_accurate_any_deviation_many(method, case):
+    _check_deviation(method, case)
+
+
 @pytest.mark.parametrize("velocity_range, velocity_azimuth", [(6.8, 0.0), (0.0, 25.0)])
 def test_a_moving_target_is_synthesised_where_it_is_seen(velocity_range, velocity_azimuth):
     """A 6.8 m/s range velocity moves the echo's Doppler by −2v_r/λ = −433 Hz, past the
@@ -660,7 +728,6 @@ def test_phase_error_of_a_target_seen_through_its_sidelobes_warns():
     # the motion's share of the error (−26.5 dB), as the budget predicts it: within 1 dB
     share = report["recorded_phase_error"].value
     assert abs(10 * np.log10((measured - still) / share)) <= 1.0, (measured, still, share)
-    assert _check_chirp("small_deviation", case) == "warned"
 
 
 @pytest.mark.parametrize("method", ["fourier_2d", "chirp_scaling", "high_speed"])
@@ -685,6 +752,33 @@ def test_a_narrow_beams_flank_warns_azimuth_amplitude(method):
     centred = sj.PointTargets(azimuth=[0.0], range=[R0])
     assert sj.validity(radar, centred, method=method)["azimuth_amplitude"].value < (
         budget.value / 10)
+
+
+@pytest.mark.parametrize("squint, measured", [(25.0, -21.4), (30.0, -16.4)])
+def test_moderate_deviation_fast_motion_at_squint_warns_doppler_migration(squint, measured):
+    """A 0.5 mm rms sinusoid of 6.4 m period (0.05 windows, a fresh-seed draw of
+    ``deviation_scenes`` at 2 mm and 20°: −15.1 dB with ``epsilon_12`` 0.097 and no
+    warning). B's motion phase makes Doppler sidebands at ±1 rad/m, which its range
+    synthesis places on the migration ``R(ξ ± Ω)``, 4–6 m from the echo at 20–30°; the
+    first-order envelope correction is linear in the sidebands' ``θ = η R′ Ω`` (up to
+    6 rad here), the seed's ε₁₂ squares the slope's local Doppler shift instead
+    (0.02 / 0.08 rad). ``doppler_migration`` predicts the sidebands' remainder within
+    1 dB (−21.9 / −16.7 dB) and warns; at broadside (no migration slope) it is 0."""
+    radar = _radar(squint)
+    r = _centre_range(squint)
+    v = _deviation("sine", 0.0005, 0.05, 0, NUM_PULSES)
+    motion = sj.Motion(horizontal=v)
+    scene = sj.PointTargets(azimuth=[r * np.tan(np.deg2rad(squint))], range=[r])
+    budget = sj.validity(radar, scene, motion, method="moderate_deviation")["doppler_migration"]
+    with pytest.warns(sj.ValidityWarning, match="doppler_migration"):
+        fast = sj.simulate(radar, scene, motion, method="moderate_deviation").data
+    exact = sj.simulate(radar, scene, motion, method="time_domain").data
+    error = nmse_db(fast, exact)
+    assert abs(error - measured) <= 1.0, error  # the case the budget was measured on
+    assert abs(error - 10 * np.log10(budget.value)) <= 1.5, (error, budget.value)
+    broadside = sj.validity(_radar(0.0), sj.PointTargets(azimuth=[0.0], range=[R0]), motion,
+                            method="moderate_deviation")
+    assert broadside["doppler_migration"].value == 0.0
 
 
 @pytest.mark.parametrize("rms, measured", [(0.3, -15.1), (0.1, -23.6)])

@@ -211,8 +211,11 @@ class AbstractFourierSimulator(AbstractSimulator):
         return synthesize(self, plan, radar, scene, motion, acquisition, dtype)
 
     def approximation_budgets(self, radar, scene, motion, acquisition):
+        near = float(acquisition.near_range)
         lobe = LobeGeometry(radar, scene, motion, acquisition.num_pulses,
-                            float(acquisition.azimuth_center))
+                            float(acquisition.azimuth_center),
+                            range_window=(near, near + (acquisition.num_range - 1)
+                                          * float(radar.range_spacing)))
         budgets, ratio = self.track.approximation_budgets(self, radar, lobe)
         return budgets + self.track.band_budgets(self, radar, scene, acquisition, lobe), ratio
 

@@ -36,7 +36,9 @@ Budgets over the pulses within the squinted main lobe (``_budgets.LobeGeometry``
   forming each range line's deviation with one height per pulse, the grid's under the
   beam centre, for each cell's own (``LobeGeometry.height_under_beam_rms``); with alias
   bands, ``band_edge_motion`` (:func:`band_edge_budget`, a track's ``band_budgets``): the
-  echo its per-line motion phase moves across the edges between them.
+  echo its per-line motion phase moves across the edges between them; at squint,
+  ``doppler_migration`` (``LobeGeometry.doppler_migration_nmse``): the motion phase's
+  Doppler sidebands, which the range synthesis places on their own migration.
 * every track with a deviation: ``recorded_phase_error``, the raw NMSE of its phase
   error (straight: ``k₀ (R − R_n)``; small: ``k₀ (R − R_n − c_d (δr + ψ(x_c, r)))``;
   moderate: ``k₀ (R − R_n − δr_xr r/R_n)``) over every recorded pair, sidelobes
@@ -61,6 +63,7 @@ from . import _extent as extent
 from . import _fourier_engine as engine
 from ._base import AbstractSimulator
 from ._budgets import (
+    COMBINED_THRESHOLD,
     HEIGHT_THRESHOLD,
     NMSE,
     PHASE_MAXIMUM,
@@ -529,4 +532,8 @@ class ModerateDeviationTrack(AbstractTrack):
                               "rms phase of one height per range line and pulse (the "
                               "grid's under the beam centre) for each cell's own", error=RMS_PHASE))
         budgets.append(recorded_phase_budget(error, recorded, "k₀ (R − R_n − δr_xr r/R_n)"))
+        budgets.append(Budget(
+            "doppler_migration", lobe.doppler_migration_nmse(sim.envelope_correction),
+            COMBINED_THRESHOLD, "raw NMSE of the range migration of the motion phase's "
+            "Doppler sidebands", error=NMSE))
         return budgets
