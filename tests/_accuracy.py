@@ -255,6 +255,13 @@ def accuracy(radar, scene_target, motion, method, weighting=None) -> Accuracy:
     return _RESULTS[key]
 
 
+def forget(radar, scene_target, motion, method, weighting=None):
+    """Drop :func:`accuracy`'s cached figures and raw data of one case, so that its next
+    call simulates (and warns) again."""
+    _RESULTS.pop(digest(radar, scene_target, motion, method, weighting or WEIGHTING), None)
+    _RAW.pop(digest(radar, scene_target, motion, method), None)
+
+
 def forget_references():
     """Drop the cached references (the full grid keeps one motion's at a time)."""
     _REFERENCES.clear()
