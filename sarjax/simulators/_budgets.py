@@ -774,7 +774,8 @@ class LobeGeometry:
         pulses, and the range synthesis then places each Doppler component ξ at the
         migration ``R(ξ) = r k₀/√(k₀² − ξ²)``. A component of the phase at spatial
         frequency Ω (amplitude ``|Ψ(Ω)|``, the transform of ``k₀ cos φ_d ψ`` over the
-        recorded pulses, weighted by ``W²(u)``) is a sideband moved by Ω in Doppler, so
+        pulses, less its mean, tapered by the recorded echo's energy smoothed over a
+        main lobe and at the window's ends) is a sideband moved by Ω in Doppler, so
         its echo lands ``R′ Ω`` away (``R′ = r sin φ_d/(k₀ cos³ φ_d)`` at the beam centre;
         0 at broadside), while the exact echo stays: an envelope phase ``θ = η R′ Ω``
         over the chirp's band. The first-order envelope correction removes ``−jθ``;
@@ -804,8 +805,8 @@ class LobeGeometry:
             self._dy[:, None], self._dz[:, None], rs[None, :], hs[None, :],
             float(radar.height)))
         psi = self.k0 * c_d * (los - self.delta_r)  # (pulse, sample) [rad]
-        u = np.asarray(beam_coordinate(self.x_p[:, None] - xs[None, :], rs[None, :],
-                                       ratio, tan_d))
+        along = self.x_p[:, None] - xs[None, :]
+        u = np.asarray(beam_coordinate(along, rs[None, :], ratio, tan_d))
         pattern = np.asarray(antenna.evaluate(radar.pattern, jnp.asarray(u)))
         # the echo's energy over the pulses, smoothed over a main lobe's width (whose
         # square root tapers ψ: the pattern itself would spread the spectrum of its
@@ -825,7 +826,7 @@ class LobeGeometry:
                           / max(n / 8, 1.0))
         taper = (0.5 - 0.5 * np.cos(np.pi * ramp))[:, None]
         spectrum = np.abs(np.fft.fft(psi * np.sqrt(energy) * taper, axis=0)) ** 2 / n
-        low, high = self._recorded_band(xs, rs)
+        low, high = self._recorded_band(along, rs, np.abs(u) <= 1.0)
         migration = slope * rs[None, :] * omega[:, None]  # R′ Ω (Ω, sample) [m]
         remainder = _band_mean_remainder(self.eta_max * low, self.eta_max * high,
                                          migration, corrected)
@@ -833,22 +834,18 @@ class LobeGeometry:
         total = float(np.sum(power * np.sum(spectrum * remainder, axis=0)))
         return total / recorded if recorded > 0 else 0.0
 
-    def _recorded_band(self, xs, rs):
+    def _recorded_band(self, along, rs, lobe):
         """(low, high) (sample,) of the chirp's band ``η/η_max`` in [−1, 1] the range
-        window records of each sample over its main-lobe pulses: the chirp maps its
-        slant ranges ``√(r² + a²) ± cτ/4`` linearly onto the band (the errors here
-        depend on |η| only, so its direction does not matter); the band's edge
-        (1, 1) without a window or a main-lobe pulse."""
-        edge = np.ones(xs.shape)
+        window records of each sample over its main-lobe pulses (``along`` a = x' − x,
+        ``lobe`` |u| ≤ 1, (pulse, sample); ``rs`` (sample,)): the chirp maps its slant
+        ranges ``√(r² + a²) ± cτ/4`` linearly onto the band (the errors here depend on
+        |η| only, so its direction does not matter); the band's edge (1, 1) without a
+        window or a main-lobe pulse."""
+        edge = np.ones(rs.shape)
         if self.range_window is None:
             return edge, edge
-        radar = self._radar
-        along = self.x_p[:, None] - xs[None, :]
-        lobe = np.abs(np.asarray(beam_coordinate(
-            along, rs[None, :], float(radar.antenna_length) / self._lam,
-            math.tan(self.squint)))) <= 1.0
         slant = np.sqrt(rs[None, :] ** 2 + along**2)
-        half = SPEED_OF_LIGHT * float(radar.chirp_duration) / 4
+        half = SPEED_OF_LIGHT * float(self._radar.chirp_duration) / 4
         first, last = self.range_window
         low = (np.maximum(first, slant - half) - slant) / half
         high = (np.minimum(last, slant + half) - slant) / half
