@@ -31,6 +31,17 @@ if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
+
+# The property tests' cases: by default each test draws the same cases on every run (a
+# seed derived from the test), so CI is reproducible, and no example database is written.
+# ``--hypothesis-profile=fresh`` draws new cases on every run instead: the way to test the
+# claims (no warning means accurate, ...) on scenes nobody has run yet, e.g.
+# ``python -m pytest -m slow --hypothesis-profile=fresh tests/test_fidelity.py``; a
+# failure prints the drawn case and the ``@reproduce_failure`` line that replays it.
+settings.register_profile("sarjax", deadline=None, derandomize=True, database=None)
+settings.register_profile("fresh", deadline=None, derandomize=False, database=None)
+settings.load_profile("sarjax")  # before --hypothesis-profile, which overrides it
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_rank_promotion", "raise")

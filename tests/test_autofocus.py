@@ -27,7 +27,7 @@ from sarjax.inverse import _sharpness
 NUM_PULSES = 384
 NUM_RANGE = 128
 NEAR_RANGE = 4750.0
-PROPERTY = settings(max_examples=2, deadline=None, derandomize=True, database=None)
+PROPERTY = settings(max_examples=2)
 
 
 def _radar(**overrides):
@@ -210,7 +210,7 @@ def _exact_products_fit(radar, rng):
             af.residual_phase_rms(radar, zero, truth, blocks))
 
 
-@settings(max_examples=2, deadline=None, derandomize=True, database=None)
+@settings(max_examples=2)
 @given(seed=st.integers(0, 10_000))
 def test_motion_increment_recovers_the_motion_from_exact_products(seed):
     """The phase-gradient fit of ``_pga.motion_increment`` on exact products, full-size
@@ -254,7 +254,7 @@ def test_starts_that_disagree_are_reported(radar):
 
 
 @given(st.integers(2, 8), st.integers(0, 2**32 - 1))
-@settings(max_examples=30, deadline=None, derandomize=True, database=None)
+@settings(max_examples=30)
 def test_the_estimate_kept_is_the_one_most_starts_agree_with(count, seed):
     """Starts in clusters (within 0.02 rad of a centre: agree at tolerance 0.1) and strays
     (≥ 1 rad from everything): the estimate kept lies in the largest cluster, and is that

@@ -29,7 +29,7 @@ def test_unit_phasor_matches_numpy(scale):
     assert got.dtype == np.complex128
 
 
-@hypothesis.settings(max_examples=50, deadline=None, derandomize=True, database=None)
+@hypothesis.settings(max_examples=50)
 @hypothesis.given(phase=st.floats(-1e9, 1e9))
 def test_wrap_phase_is_the_phase_less_whole_turns(phase):
     """In [−π, π], and φ less a whole number of turns to ≤ 2e-16·|φ| + 1e-15 rad (its

@@ -5,7 +5,8 @@ deviations in every method.
 
 Sizes are tiny (64 pulses × 128 range samples, two scatterers) and fixed: every example
 changes values only, so each (method, motion structure) compiles once. Examples are
-bounded and derandomized (reproducible in CI); the database is off (no files written).
+bounded and derandomized (reproducible in CI; ``--hypothesis-profile=fresh`` draws new
+ones); the database is off (no files written): tests/conftest.py.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ RANGES = (5180.0, 5300.0)
 # cost the Fourier methods −21 dB (their chirp_edges budget warns; test_fidelity checks it)
 pytestmark = pytest.mark.filterwarnings("ignore::sarjax.ValidityWarning")
 
-PROPERTY = settings(max_examples=12, deadline=None, derandomize=True, database=None)
+PROPERTY = settings(max_examples=12)
 
 ranges = st.floats(*RANGES)
 azimuths = st.floats(-4.0, 4.0)
@@ -206,7 +207,7 @@ STRAIGHT_ONLY = {"high_speed", "chirp_scaling"}  # refuse any motion, zeros incl
 
 
 @pytest.mark.parametrize("method", REGISTERED)
-@settings(max_examples=6, deadline=None, derandomize=True, database=None)
+@settings(max_examples=6)
 @given(x=st.tuples(azimuths, azimuths), r=st.tuples(ranges, ranges),
        gamma=st.tuples(reflectivities(), reflectivities()))
 def test_straight_track_equals_zero_deviations(method, x, r, gamma):
