@@ -40,7 +40,8 @@ from hypothesis import settings  # noqa: E402
 # ``python -m pytest -m slow --hypothesis-profile=fresh tests/test_fidelity.py``; a
 # failure prints the drawn case and the ``@reproduce_failure`` line that replays it.
 settings.register_profile("sarjax", deadline=None, derandomize=True, database=None)
-settings.register_profile("fresh", deadline=None, derandomize=False, database=None)
+settings.register_profile("fresh", parent=settings.get_profile("sarjax"), derandomize=False,
+                          print_blob=True)
 settings.load_profile("sarjax")  # before --hypothesis-profile, which overrides it
 
 jax.config.update("jax_enable_x64", True)

@@ -28,7 +28,7 @@ _BOUND_DB = {2: -20.0, 3: -38.0, 4: -56.0, 5: -75.0, 6: -88.0, 7: -108.0, 8: -12
 _COMPLEX64_FLOOR_DB = -125.0
 
 
-@hypothesis.settings(max_examples=15, deadline=None)
+@hypothesis.settings(max_examples=15)
 @hypothesis.given(n_lines=st.integers(1, 420), taps=st.sampled_from(sorted(_BOUND_DB)),
                   seed=st.integers(0, 2**16))
 # the worst cases measured (a period of 1.8–2× the lines): always run
@@ -89,7 +89,7 @@ def test_a_kernel_wider_than_the_guard_is_refused():
 _WEIGHTS = jax.jit(_sinc_weights, static_argnums=(1, 2))  # one program per (taps, dtype)
 
 
-@hypothesis.settings(max_examples=20, deadline=None)
+@hypothesis.settings(max_examples=20)
 @hypothesis.given(taps=st.sampled_from([4, 8, 16]), seed=st.integers(0, 2**16),
                   edge=st.floats(1e-9, 1e-3))
 def test_float32_weights_keep_their_relative_precision_at_the_samples(taps, seed, edge):

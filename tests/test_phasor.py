@@ -64,7 +64,7 @@ def test_derivatives_are_exact():
     np.testing.assert_allclose(jax.vmap(jax.grad(sine))(phase), np.cos(phase), atol=1e-15)
 
 
-@hypothesis.settings(max_examples=25, deadline=None)
+@hypothesis.settings(max_examples=25)
 @hypothesis.given(scale=st.floats(1e-3, 1e6), seed=st.integers(0, 2**16))
 def test_reduced_phasor_float32_error_does_not_grow_with_the_phase(scale, seed):
     """complex64 phasors of float64 phases of any size (κ r ~ 10⁴ rad in the Fourier

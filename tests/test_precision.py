@@ -94,7 +94,7 @@ def test_complex64_rounding_budget_follows_the_synthesised_share(method):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", FOURIER_TRACK_METHODS)
-@hypothesis.settings(max_examples=6, deadline=None, derandomize=False)
+@hypothesis.settings(max_examples=6, derandomize=False)
 @hypothesis.given(squint_deg=st.floats(-15.0, 15.0), seed=st.integers(0, 2**16),
                   where=st.sampled_from(["inside", "edge", "outside", "sidelobes"]))
 def test_fourier_complex64_against_complex128_drawn(method, squint_deg, seed, where):
