@@ -38,6 +38,12 @@ def _horner(coefficients, x):
     return out
 
 
+# One nested jit: a program forms its phasors at a few shapes, and jax traces and lowers
+# the ~60 operations below once per shape and dtype instead of once per phasor (XLA inlines
+# the call, so the compiled program is the same). Moderate deviation's program on a
+# 512 × 256 grid (28 phasors): traced and lowered in 0.9-1.0 s instead of 1.6-1.7 s,
+# compiled in 1.6-1.8 s instead of 1.7-1.9 s.
+@jax.jit
 def _sin_cos(phase):
     """(sin φ, cos φ) for real floating φ."""
     n = jnp.round(phase * _TWO_OVER_PI)
@@ -70,6 +76,20 @@ def _sine_jvp(primals, tangents):
     (x,), (dx,) = primals, tangents
     s, c = _sin_cos(jnp.asarray(x))
     return s, c * dx
+
+
+@jax.custom_jvp
+def sine_cosine(x):
+    """(sin x, cos x) for real x, by the same reduction and series as :func:`unit_phasor`
+    (one reduction for both)."""
+    return _sin_cos(jnp.asarray(x))
+
+
+@sine_cosine.defjvp
+def _sine_cosine_jvp(primals, tangents):
+    (x,), (dx,) = primals, tangents
+    s, c = sine_cosine(x)
+    return (s, c), (c * dx, -s * dx)
 
 
 @jax.custom_jvp

@@ -353,7 +353,7 @@ def _band(sim, plan, ctx, motion, acquisition, n_r, block):
     delta_kept = geometry.reference_deviation(ctx.horizontal, ctx.vertical, radar)  # δr(x')
     order = track.pointing_order(sim) if motion.pointing is not None else 0
     orders = range(order + 1)
-    weights = [engine.pattern_weights(radar, xi, n) for n in orders]
+    weights = engine.pattern_weights(radar, xi, order)
     alias_sets = engine.range_alias_sets(engine.range_wavenumbers(radar, n_r),
                                          radar.range_spacing,
                                          sim.range_aliases,

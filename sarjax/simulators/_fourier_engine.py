@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _exported, antenna
+from .. import _exported
 from .._numerics.es_kernel import kernel_transform, spreading_kernel
 from .._numerics.interpolation import (
     PeriodicRows,
@@ -51,13 +51,6 @@ _TWO_PI = 2 * jnp.pi
 # --------------------------------------------------------------------------------------
 # building blocks
 # --------------------------------------------------------------------------------------
-
-
-def pattern_term(pattern, order: int):
-    """u ↦ W²⁽ⁿ⁾(u) / n!: the n-th Taylor coefficient of the pattern (autodiff)."""
-    f = antenna.pattern_derivative(pattern, order)
-    scale = 1.0 / math.factorial(order)
-    return lambda u: f(u) * scale
 
 
 def range_wavenumbers(radar, n_r):
@@ -83,17 +76,18 @@ def chirp_spectrum(radar, eta):
     return _chirp_spectrum(radar.chirp_rate, radar.pulse_half_length, eta)
 
 
+@jax.jit  # traced once per shape; the Fresnel integrals are ~300 operations
 def _chirp_spectrum(b, half, eta):
-    """C(η) for chirp rate b [rad/m²] and half-length cτ/4 [m] (see :func:`chirp_spectrum`)."""
+    """C(η) for chirp rate b [rad/m²] and half-length cτ/4 [m] (see :func:`chirp_spectrum`).
+    Both ends' Fresnel integrals in one evaluation (one copy of the approximation in the
+    compiled program instead of two)."""
     scale = jnp.sqrt(2 * b / jnp.pi)
-    t1 = (-half + eta / (2 * b)) * scale
-    t2 = (half + eta / (2 * b)) * scale
-    s1, c1 = jax.scipy.special.fresnel(t1)
-    s2, c2 = jax.scipy.special.fresnel(t2)
+    ends = jnp.stack([(-half + eta / (2 * b)) * scale, (half + eta / (2 * b)) * scale])
+    s, c = jax.scipy.special.fresnel(ends)
     return (
         unit_phasor(eta**2 / (4 * b))
         * jnp.sqrt(jnp.pi / (2 * b))
-        * ((c2 - c1) - 1j * (s2 - s1))
+        * ((c[1] - c[0]) - 1j * (s[1] - s[0]))
     )
 
 
@@ -700,19 +694,24 @@ def squinted_pattern_argument(radar, xi):
     return u0, slope
 
 
-def pattern_weights(radar, xi, order):
-    """``(w_n, w_n′)`` (n_x,): the n-th pointing term of the pattern at η = 0 and its slope
-    in η, ``(−(L/λ)/(1 + tT))ⁿ W²⁽ⁿ⁾(u₀)/n!`` and ``… W²⁽ⁿ⁺¹⁾(u₀)/n! · ∂u*/∂η``
-    (seed 000 eq. 21–24, seed 002 eq. 34): the pattern applied as ``w_n + η w_n′``. u*
-    moves with η through ``t``, by ≈ ξ/k₀ · η/k₀ relative (at 15° squint ≈ 0.02 across
-    the band, a ≈ 7 % slope of the beam's flank); the next term is < 10⁻³."""
+def pattern_weights(radar, xi, max_order):
+    """``[(w_n, w_n′) for n = 0 … max_order]``, each (n_x,): the n-th pointing term of the
+    pattern at η = 0 and its slope in η, ``(−(L/λ)/(1 + tT))ⁿ W²⁽ⁿ⁾(u₀)/n!`` and
+    ``… W²⁽ⁿ⁺¹⁾(u₀)/n! · ∂u*/∂η`` (seed 000 eq. 21–24, seed 002 eq. 34): the pattern
+    applied as ``w_n + η w_n′``. u* moves with η through ``t``, by ≈ ξ/k₀ · η/k₀ relative
+    (at 15° squint ≈ 0.02 across the band, a ≈ 7 % slope of the beam's flank); the next
+    term is < 10⁻³. The pattern's derivatives of every order are formed together
+    (:meth:`~sarjax.antenna.AbstractPattern.derivatives`)."""
     k0 = radar.wavenumber
     t = xi / jnp.sqrt(k0**2 - xi**2)
     u0, slope = squinted_pattern_argument(radar, xi)
-    scale = (-(radar.antenna_length / radar.wavelength) / (1 + t * jnp.tan(radar.squint))) ** order
-    base = scale * pattern_term(radar.pattern, order)(u0)
-    steep = scale * (order + 1) * pattern_term(radar.pattern, order + 1)(u0) * slope
-    return base, steep
+    derivative = radar.pattern.derivatives(u0, max_order + 1)  # W²⁽ⁿ⁾(u₀), n ≤ max + 1
+    step = -(radar.antenna_length / radar.wavelength) / (1 + t * jnp.tan(radar.squint))
+    weights = []
+    for n in range(max_order + 1):
+        scale = step**n / math.factorial(n)
+        weights.append((scale * derivative[n], scale * derivative[n + 1] * slope))
+    return weights
 
 
 def coupling_factors(los, alpha, order, dtype):
