@@ -621,11 +621,19 @@ def _chirp_spectrum_program(chirp_rate, half_length, eta):
 
 def chirp_spectrum_values(chirp_rate, half_length, eta):
     """:func:`chirp_spectrum` as a NumPy array, for eager checks on concrete values: one
-    compiled program per shape, kept between processes with the simulation programs
-    (``_exported``), so a later process neither traces it nor imports SciPy."""
+    compiled program per length bucket, kept between processes with the simulation
+    programs (``_exported``), so a later process neither traces it nor imports SciPy.
+    The wavenumbers are flattened and padded to a power of two (≥ 256): the checks ask
+    for many lengths (every range FFT size and alias count; 50 in the test suite), which
+    compiled one program each (0.5 s apiece)."""
+    eta = np.asarray(eta, float)
+    bucket = max(256, 1 << (eta.size - 1).bit_length())
+    padded = np.zeros(bucket)
+    padded[:eta.size] = eta.reshape(-1)
     with jax.ensure_compile_time_eval():  # one compiled program, not one per operation
-        return np.asarray(_chirp_spectrum_program(float(chirp_rate), float(half_length),
-                                                  np.asarray(eta, float)))
+        values = np.asarray(_chirp_spectrum_program(float(chirp_rate), float(half_length),
+                                                    padded))
+    return values[:eta.size].reshape(eta.shape)
 
 
 def add_alias_bands(principal, band, bands):
