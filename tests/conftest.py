@@ -112,24 +112,25 @@ def _trim():
 # (the rest keep their order) keeps a long module from running alone at the end while
 # the other worker idles.
 _MODULE_SECONDS = {
-    "test_docs.py": 150,  # the site's build, every notebook executed
-    "test_fidelity.py": 118, "test_inverse.py": 93, "test_validity.py": 61,
-    "test_gradients_all.py": 52, "test_readme.py": 48, "test_fourier.py": 45,
-    "test_squint_fourier.py": 39, "test_sharding.py": 38, "test_distributed.py": 37,
-    "test_high_speed.py": 34, "test_campaign.py": 34, "test_export.py": 31,
-    "test_autofocus.py": 31, "test_compilation_cache.py": 30, "test_nufft.py": 29,
-    "test_gradients.py": 26, "test_focusing.py": 24, "test_properties.py": 22,
-    "test_cli.py": 20, "test_ambiguities.py": 20, "test_reproducibility.py": 19,
-    "test_fourier_gradients.py": 19, "test_memory.py": 18, "test_interpolation.py": 17,
-    "test_batch.py": 16, "test_bad_inputs.py": 13, "test_chirp_scaling.py": 11,
-    "test_map_drift.py": 10, "test_models.py": 9, "test_retrace.py": 8,
-    "test_precision.py": 8, "test_phasor.py": 6, "test_layers.py": 5,
+    "test_fidelity.py": 261,
+    "test_docs.py": 232,  # the site's build, every notebook executed
+    "test_inverse.py": 129, "test_validity.py": 107, "test_readme.py": 83,
+    "test_fourier.py": 73, "test_export.py": 64, "test_autofocus.py": 62,
+    "test_gradients_all.py": 61, "test_high_speed.py": 56, "test_sharding.py": 55,
+    "test_campaign.py": 47, "test_nufft.py": 47, "test_squint_fourier.py": 46,
+    "test_compilation_cache.py": 40, "test_gradients.py": 40, "test_cli.py": 40,
+    "test_distributed.py": 39, "test_focusing.py": 37, "test_properties.py": 32,
+    "test_ambiguities.py": 30, "test_memory.py": 26, "test_reproducibility.py": 25,
+    "test_bad_inputs.py": 25, "test_fourier_gradients.py": 23, "test_map_drift.py": 20,
+    "test_chirp_scaling.py": 19, "test_batch.py": 18, "test_models.py": 17,
+    "test_interpolation.py": 10, "test_retrace.py": 10, "test_precision.py": 9,
+    "test_layers.py": 8, "test_sicd.py": 8, "test_time_domain_kernel.py": 6,
 }
 
 
 def pytest_configure(config):
     # pytest-xdist (≥ 3.2) reorders ``--dist loadfile`` modules by their number of tests,
-    # which put the site's build (3 tests, the longest module) last; keep the order below
+    # which put the site's build (3 tests, one build of ~230 s) last; keep the order below
     if hasattr(config.option, "loadscopereorder"):
         config.option.loadscopereorder = False
 
