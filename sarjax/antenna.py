@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 
 from . import _exported
-from ._numerics.phasor import sine, sine_cosine
+from ._numerics.phasor import horner, sine, sine_cosine
 
 
 @_exported.cached  # kept on disk with the compilation cache (traced once per shape)
@@ -116,7 +116,7 @@ class Sinc2Pattern(AbstractPattern):
         out = []
         for n in range(order + 1):
             quotient = sum(math.comb(n, k) * s[k] * s[n - k] for k in range(n + 1))
-            series = _polynomial(_sinc2_series_derivative(n), x)
+            series = horner(_sinc2_series_derivative(n), x)
             out.append(jnp.where(small, series, quotient) * jnp.pi**n)
         return tuple(out)
 
@@ -134,14 +134,6 @@ def _sinc2_series_derivative(n: int):
     for _ in range(n):
         coefficients = [p * c for p, c in enumerate(coefficients)][1:] or [0.0]
     return tuple(coefficients)
-
-
-def _polynomial(coefficients, x):
-    """``Σ cᵢ xⁱ`` by Horner's rule (coefficients lowest power first)."""
-    out = jnp.full_like(x, coefficients[-1])
-    for c in coefficients[-2::-1]:
-        out = out * x + c
-    return out
 
 
 class GaussianPattern(AbstractPattern):
