@@ -75,6 +75,7 @@ from ._budgets import (
     beam_coordinate,
     lobe_pairs,
     lobe_peak,
+    over_pulse_blocks,
     pointing_budget,
     recorded_mean_square,
     recorded_phase_budget,
@@ -212,27 +213,40 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
     values outside, as the simulator has it; the pairs from
     :func:`~._budgets.lobe_pairs`); then :func:`~._budgets.recorded_mean_square` of A's
     phase error ``k₀ (R − R_n − cos φ_d (δr + ψ(x_c, r)))``, the first and the third
-    terms signed and added (``constants``: k₀, cos φ_d)."""
+    terms signed and added (``constants``: k₀, cos φ_d). Blocks of pulses
+    (:func:`~._budgets.over_pulse_blocks`)."""
     k0, c_d = constants[0], constants[1]
-    along, lobe, los = lobe_pairs(pairs)
-    rs = pairs[2][None, :]
-    nominal = jnp.sqrt(rs**2 + along**2)
-    exact = rs + geometry.range_offset(along, rs, los)
-    cos_look = rs / nominal
-    psi = los - delta_r
-    n = psi.shape[0]
+    _, _, rs, hs, dy, dz, _, _, height = pairs
+    n = dy.shape[0]
+    # ψ at each scatterer's beam-centre pulse, linear between the two pulses around it
     position = jnp.clip(beam_pulse, 0.0, n - 1.0)
     i0 = jnp.minimum(jnp.floor(position).astype(jnp.int32), max(n - 2, 0))
     t = position - i0
-    cols = jnp.arange(psi.shape[1])
-    psi_beam = psi[i0, cols] * (1 - t) + psi[jnp.minimum(i0 + 1, n - 1), cols] * t
-    coupling, variation = exact - nominal - c_d * los, psi - psi_beam[None, :]
-    return (lobe_peak(lobe, coupling),
+
+    def psi_at(i):  # (scatterer,) ψ = δr_xr − δr at pulse i of each scatterer
+        return geometry.line_of_sight_deviation(dy[i], dz[i], rs, hs, height) - delta_r[i, 0]
+
+    psi_beam = psi_at(i0) * (1 - t) + psi_at(jnp.minimum(i0 + 1, n - 1)) * t
+    rs = rs[None, :]
+
+    def block(along, lobe, los, delta_r_b, live):
+        nominal = jnp.sqrt(rs**2 + along**2)
+        exact = rs + geometry.range_offset(along, rs, los)
+        cos_look = rs / nominal
+        psi = los - delta_r_b
+        coupling, variation = exact - nominal - c_d * los, psi - psi_beam[None, :]
+        peaks = jnp.stack([
+            lobe_peak(lobe, coupling),
             lobe_peak(lobe, jnp.abs(psi) / cos_look
-                       + jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)),
-            lobe_peak(lobe, variation)) + recorded_mean_square(
-                pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power[None, :],
-                k0 * (coupling + c_d * variation))
+                      + jnp.abs(delta_r_b) * jnp.abs(1 / cos_look - 1 / c_d)),
+            lobe_peak(lobe, variation)])
+        sums = recorded_mean_square(
+            pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power[None, :] * live,
+            k0 * (coupling + c_d * variation))
+        return peaks, jnp.stack(sums)
+
+    peaks, sums = over_pulse_blocks(block, pairs, (delta_r,))
+    return tuple(peaks) + tuple(sums)
 
 
 class SmallDeviationTrack(AbstractTrack):
@@ -281,28 +295,29 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
     sums of :func:`~._budgets.recorded_mean_square` of B's phase error
     ``k₀ (R − R_n − δr_xr c)`` (``power`` |γ|² (scatterer,)). Blocks of
     scatterers at a time (all pulses each: the slopes and the mean are along them), so
-    that the dozen intermediates stay in cache. The pairs from
-    :func:`~._budgets.lobe_pairs`."""
+    that the dozen intermediates stay in cache, each block's pairs formed inside it
+    (:func:`~._budgets.lobe_pairs` of its scatterers): formed over the whole plane
+    first, they were a dozen (pulse, scatterer) arrays written and transposed into
+    blocks."""
     k0, c_d, dx = constants
-    along, lobe, los = lobe_pairs(pairs)
-    rs = pairs[2][None, :]
-    n_pulses, n_scatterers = los.shape
+    x_p, xs, rs, hs, dy, dz, ratio, tan_d, height = pairs
+    n_scatterers = xs.shape[0]
     width = min(_SCATTERER_BLOCK, n_scatterers)
     blocks = -(-n_scatterers // width)
     fill = blocks * width - n_scatterers
 
-    def split(values):  # (pulse, scatterer) → (block, pulse, width), edge-padded
-        values = jnp.broadcast_to(values, (values.shape[0], n_scatterers))
-        values = jnp.pad(values, ((0, 0), (0, fill)), mode="edge")
-        return jnp.moveaxis(values.reshape(values.shape[0], blocks, width), 1, 0)
+    def split(values):  # (scatterer,) → (block, width), edge-padded
+        return jnp.pad(values, (0, fill), mode="edge").reshape(blocks, width)
 
-    in_lobe = jnp.pad(lobe, ((0, 0), (0, fill)))  # padded scatterers: outside the lobe
-    in_lobe = jnp.moveaxis(in_lobe.reshape(n_pulses, blocks, width), 1, 0)
-    # padded scatterers: no echo
-    in_power = jnp.pad(power, (0, fill)).reshape(blocks, 1, width)
+    # padded scatterers: outside the lobe, no echo
+    real = (jnp.arange(blocks * width) < n_scatterers).reshape(blocks, width)
 
     def block(args):
-        along, rs, los, lobe, power = args
+        xs, rs, hs, power, real = args
+        # the block's pairs formed here, from its scatterers (1-D) and every pulse
+        along, lobe, los = lobe_pairs((x_p, xs, rs, hs, dy, dz, ratio, tan_d, height))
+        lobe = lobe & real[None, :]
+        rs, power = rs[None, :], jnp.where(real, power, 0.0)[None, :]
         nominal = jnp.sqrt(rs**2 + along**2)
         exact = rs + geometry.range_offset(along, rs, los)
         cos_look = rs / nominal
@@ -334,7 +349,7 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
             lobe_peak(lobe, corrected), lobe_peak(lobe, uncorrected),
             lobe_peak(lobe, corrected + uncorrected)]), jnp.stack(recorded)
 
-    peaks, sums = jax.lax.map(block, (split(along), split(rs), split(los), in_lobe, in_power))
+    peaks, sums = jax.lax.map(block, (split(xs), split(rs), split(hs), split(power), real))
     return tuple(jnp.max(peaks, axis=0)) + tuple(jnp.sum(sums, axis=0))
 
 
@@ -372,12 +387,7 @@ def band_edge_budget(radar, scene, acquisition, lobe, bands):
     (5°, L = 0.6 m: −21.1 / −11.9 dB); at 30° it fell 4–16 dB short, where ``epsilon_12``
     warns. The error grows as Δξ², not as the energy moved: part of what crosses stays
     near its place. Threshold −28 dB."""
-    _, _, rs, hs, dy, dz, _, _, height = lobe.pairs  # the scene's samples, the motion
-    los = np.asarray(geometry.line_of_sight_deviation(
-        dy[:, None], dz[:, None], rs[None, :], hs[None, :], height))
-    psi = los - lobe.delta_r  # (pulse, sample) ψ = δr_xr − δr
-    slope = np.max(np.abs(np.gradient(psi, lobe.dx, axis=0))) if psi.shape[0] > 1 else 0.0
-    spread = lobe.k0 * math.cos(lobe.squint) * float(slope)
+    spread = lobe.k0 * math.cos(lobe.squint) * lobe.deviation_slope_max()
     value = BAND_EDGE_SCALE * spread * extent.band_edge_spill(radar, scene, acquisition,
                                                              bands, spread)
     return Budget("band_edge_motion", value, BAND_EDGE_THRESHOLD,
