@@ -229,16 +229,18 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
     psi_beam = psi_at(i0) * (1 - t) + psi_at(jnp.minimum(i0 + 1, n - 1)) * t
     rs = rs[None, :]
 
+    inverse_range = 1 / rs  # per scatterer: the pairs' divisions by r become products
+
     def block(along, lobe, los, delta_r_b, live):
         nominal = jnp.sqrt(rs**2 + along**2)
         exact = rs + geometry.range_offset(along, rs, los)
-        cos_look = rs / nominal
+        secant = nominal * inverse_range  # 1/c
         psi = los - delta_r_b
         coupling, variation = exact - nominal - c_d * los, psi - psi_beam[None, :]
         peaks = jnp.stack([
             lobe_peak(lobe, coupling),
-            lobe_peak(lobe, jnp.abs(psi) / cos_look
-                      + jnp.abs(delta_r_b) * jnp.abs(1 / cos_look - 1 / c_d)),
+            lobe_peak(lobe, jnp.abs(psi) * secant
+                      + jnp.abs(delta_r_b) * jnp.abs(secant - 1 / c_d)),
             lobe_peak(lobe, variation)])
         sums = recorded_mean_square(
             pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power[None, :] * live,
@@ -320,10 +322,16 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         rs, power = rs[None, :], jnp.where(real, power, 0.0)[None, :]
         nominal = jnp.sqrt(rs**2 + along**2)
         exact = rs + geometry.range_offset(along, rs, los)
+        # c = r/R_n and its powers' reciprocals from one division per pair and one per
+        # scatterer (1/r), not one per term
         cos_look = rs / nominal
+        secant = nominal * (1 / rs)
+        secant2 = secant * secant
+        secant5 = secant2 * secant2 * secant
+        secant7 = secant5 * secant2
         psi = los - delta_r
-        # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n
-        alpha = jnp.abs(jnp.sqrt(k0**2 - (k0 * along / nominal) ** 2) - k0 * c_d)
+        # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n, √(k₀² − ξ²) = k₀ c
+        alpha = k0 * jnp.abs(cos_look - c_d)
         los_slope = jnp.gradient(los, dx, axis=0)
         psi_slope = jnp.gradient(psi, dx, axis=0)
         # ψ's Doppler shift Δξ = k₀ c_d ∂ψ/∂x' moves its echo by R(ξ) − R(ξ − Δξ), R(ξ) =
@@ -331,13 +339,13 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         # (R′Δξ = c_d |a ∂ψ/∂x'|/c², R″Δξ²/2 = r (c_d ∂ψ/∂x')² (3 − 2c²)/(2c⁵)); the
         # third and fourth orders are left
         doppler = c_d * jnp.abs(psi_slope)
-        sine = jnp.abs(along) / nominal
-        corrected = (jnp.abs(psi) / cos_look + c_d * jnp.abs(along * psi_slope) / cos_look**2
-                     + rs * doppler**2 * (3 - 2 * cos_look**2) / (2 * cos_look**5))
-        higher = (rs * doppler**3 * sine * (9 * cos_look**2 + 15 * sine**2) / (6 * cos_look**7)
-                  + 3 * rs * doppler**4 / (8 * cos_look**9))
-        uncorrected = (jnp.abs(delta_r) * jnp.abs(1 / cos_look - 1 / c_d)
-                       + jnp.abs(along) * alpha * jnp.abs(los_slope) / (k0 * cos_look**2)
+        sine = jnp.abs(along) * cos_look * (1 / rs)  # |a|/R_n
+        corrected = (jnp.abs(psi) * secant + c_d * jnp.abs(along * psi_slope) * secant2
+                     + rs * doppler**2 * (3 - 2 * cos_look**2) * secant5 / 2)
+        higher = (rs * doppler**3 * sine * (9 * cos_look**2 + 15 * sine**2) * secant7 / 6
+                  + 3 * rs * doppler**4 * secant7 * secant2 / 8)
+        uncorrected = (jnp.abs(delta_r) * jnp.abs(secant - 1 / c_d)
+                       + jnp.abs(along) * alpha * jnp.abs(los_slope) * secant2 / k0
                        + higher)
         rest = exact - nominal - los * cos_look
         recorded = recorded_mean_square(
