@@ -654,7 +654,7 @@ def over_pulse_blocks(block_fn, pairs, per_pulse=(), block=PULSE_BLOCK):
     returned. Over the whole (pulse, scatterer) plane at once, each of the programs'
     dozen intermediates is an array of its own (XLA's CPU reductions read their input
     from memory): 8 MB apiece for 972 pulses × 1024 scatterers, written, faulted in
-    and read back at every call; a block of 32 pulses keeps them in cache."""
+    and read back at every call; a block of 128 pulses keeps them in cache."""
     x_p, xs, rs, hs, dy, dz, ratio, tan_d, height = pairs
     n = x_p.shape[0]
     block = max(1, min(block, n))
@@ -720,8 +720,7 @@ def _height_phase_sums(pulses, lines, cells, pattern, constants):
 
     phase = k0 * c_d * (los(own[:, None, :]) - los(beam))
     along = x_p[None, :, None] - x_cells[None, None, :]
-    u = ratio * (along / r + tan_d) / (1 - along * tan_d / r)
-    weight = (gamma[:, None, :] * pattern(u)) ** 2
+    weight = (gamma[:, None, :] * pattern(beam_coordinate(along, r, ratio, tan_d))) ** 2
     return jnp.sum(weight * phase**2), jnp.sum(weight)
 
 

@@ -228,7 +228,6 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
 
     psi_beam = psi_at(i0) * (1 - t) + psi_at(jnp.minimum(i0 + 1, n - 1)) * t
     rs = rs[None, :]
-
     inverse_range = 1 / rs  # per scatterer: the pairs' divisions by r become products
 
     def block(along, lobe, los, delta_r_b, live):
@@ -325,7 +324,8 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         # c = r/R_n and its powers' reciprocals from one division per pair and one per
         # scatterer (1/r), not one per term
         cos_look = rs / nominal
-        secant = nominal * (1 / rs)
+        inverse_range = 1 / rs
+        secant = nominal * inverse_range
         secant2 = secant * secant
         secant5 = secant2 * secant2 * secant
         secant7 = secant5 * secant2
@@ -339,7 +339,7 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         # (R′Δξ = c_d |a ∂ψ/∂x'|/c², R″Δξ²/2 = r (c_d ∂ψ/∂x')² (3 − 2c²)/(2c⁵)); the
         # third and fourth orders are left
         doppler = c_d * jnp.abs(psi_slope)
-        sine = jnp.abs(along) * cos_look * (1 / rs)  # |a|/R_n
+        sine = jnp.abs(along) * cos_look * inverse_range  # |a|/R_n
         corrected = (jnp.abs(psi) * secant + c_d * jnp.abs(along * psi_slope) * secant2
                      + rs * doppler**2 * (3 - 2 * cos_look**2) * secant5 / 2)
         higher = (rs * doppler**3 * sine * (9 * cos_look**2 + 15 * sine**2) * secant7 / 6
