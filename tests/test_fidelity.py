@@ -7,11 +7,12 @@ at the edge of or beyond the range window — with a squint of 0–30°, and a t
 straight to far beyond the approximations' budgets, for every Fourier-domain method of
 the track, and for chirp scaling and high speed (straight track; chirp scaling broadside
 only); for high speed also a moving target (range velocity up to 40 m/s, along-track up
-to 30 m/s). The property: a run that does not warn (``ValidityWarning``; a window that
-records nothing gives ``SwathWarning``) or refuse (a ``ValueError`` naming the method,
-for a squint or a motion the model does not implement) matches the exact model with the
-same physics — stop-and-go, or for ``high_speed`` the non-stop-and-go echo delay —,
-raw NMSE ≤ −25 dB. A run that warns may be wrong; that is what the warning is for.
+to 30 m/s); and scenes of 2–6 such targets of reflectivity 0.01–1. The property: a run
+that does not warn (``ValidityWarning``; a window that records nothing gives
+``SwathWarning``) or refuse (a ``ValueError`` naming the method, for a squint or a motion
+the model does not implement) matches the exact model with the same physics —
+stop-and-go, or for ``high_speed`` the non-stop-and-go echo delay —, raw NMSE ≤ −25 dB.
+A run that warns may be wrong; that is what the warning is for.
 
 CI draws a few cases per method; the slow tier (``-m slow``) draws many. The draws are
 the same on every run; ``--hypothesis-profile=fresh`` draws new ones (tests/conftest.py).
@@ -233,6 +234,55 @@ def test_no_warning_means_accurate_on_grids(method, case):
 @given(case=grid_scenes())
 def test_no_warning_means_accurate_on_grids_many(method, case):
     _check_grid(method, case)
+
+
+@st.composite
+def several_target_scenes(draw):
+    """(squint [deg], ((x, r, |γ|, arg γ), …), (motion rms [m], pointing [λ/L])): 2–6
+    point targets, each placed as ``scenes`` places one (inside, at the edge of, beyond or
+    far outside the window, in range inside or beyond it), of reflectivity 0.01–1 with a
+    random phase: a weak target inside beside a strong one beyond the edge is where one
+    target's error can hide in another's energy."""
+    squint = draw(st.sampled_from([0.0, 0.0, 4.0, 10.0, 20.0, 30.0]))
+    centre = _centre_range(squint)
+    crossing = centre * np.tan(np.deg2rad(squint))
+    targets = []
+    for _ in range(draw(st.integers(2, 6))):
+        placement = draw(st.sampled_from(["inside", "inside", "edge", "beyond", "far"]))
+        lo, hi = {"inside": (-60.0, 60.0), "edge": (40.0, 120.0), "beyond": (100.0, 500.0),
+                  "far": (500.0, 1500.0)}[placement]
+        x = crossing + draw(st.floats(lo, hi)) * draw(st.sampled_from([-1.0, 1.0]))
+        r = draw(st.one_of(st.floats(centre - 150.0, centre + 150.0),
+                           st.floats(max(centre - 700.0, HEIGHT + 100.0), centre + 700.0)))
+        targets.append((x, r, 10 ** draw(st.floats(-2.0, 0.0)),
+                        draw(st.floats(-np.pi, np.pi))))
+    motion = (draw(st.sampled_from([0.0, 0.0, 1e-3, 0.02, 0.5])),
+              draw(st.sampled_from([0.0, 0.0, 0.05, 0.2])))
+    return squint, tuple(targets), motion
+
+
+def _check_several(method, case):
+    squint, targets, motion = case
+    radar = _radar(squint)
+    x, r, magnitude, phase = (np.asarray(v) for v in zip(*targets, strict=True))
+    scene = sj.PointTargets(azimuth=x, range=r, reflectivity=magnitude * np.exp(1j * phase))
+    return _check_scene(method, radar, scene, _motion(motion, radar), _centre_range(squint),
+                        case)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=1, **SETTINGS)
+@given(case=several_target_scenes())
+def test_no_warning_means_accurate_with_several_targets(method, case):
+    _check_several(method, case)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS)
+@settings(max_examples=30, **SETTINGS)
+@given(case=several_target_scenes())
+def test_no_warning_means_accurate_with_several_targets_many(method, case):
+    _check_several(method, case)
 
 
 TRACK_METHODS = ("fourier_2d", "small_deviation", "moderate_deviation")
