@@ -155,12 +155,12 @@ def _terms(args, y):
 def cost(args, y):
     """½‖r‖² (the residual and the penalty) at ``y``."""
     per_pulse, penalty = _terms(args, y)
-    return 0.5 * (float(jnp.sum(per_pulse)) + float(penalty))
+    return 0.5 * (float(np.sum(np.asarray(per_pulse))) + float(penalty))
 
 
 def chi2(args, y):
     """χ² of the whitened residual (the penalty excluded) at ``y``."""
-    return float(jnp.sum(_terms(args, y)[0]))
+    return float(np.sum(np.asarray(_terms(args, y)[0])))
 
 
 def pulse_chi2(args, y):
