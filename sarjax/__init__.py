@@ -22,6 +22,7 @@ from ._data import Image as Image  # noqa: E402
 from ._data import RawData as RawData  # noqa: E402
 from ._simulate import simulate as simulate  # noqa: E402
 from ._simulate import simulation_memory as simulation_memory  # noqa: E402
+from ._validate import FocusWarning as FocusWarning  # noqa: E402
 from ._validate import SwathWarning as SwathWarning  # noqa: E402
 from ._validate import ValidityWarning as ValidityWarning  # noqa: E402
 from .antenna import AbstractPattern as AbstractPattern  # noqa: E402

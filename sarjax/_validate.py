@@ -209,6 +209,12 @@ class ValidityWarning(UserWarning):
     threshold, and the methods to use instead. ``strict=True`` raises instead."""
 
 
+class FocusWarning(UserWarning):
+    """A focusing outside its method's measured budget (:func:`sarjax.focus`): the image
+    may be inaccurate; the message names the budget, its value and threshold, and the
+    method to use instead. ``strict=True`` raises instead."""
+
+
 class SwathWarning(UserWarning):
     """No scatterer's echo reaches the range window: the raw data is identically zero."""
 

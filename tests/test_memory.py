@@ -271,21 +271,29 @@ def test_estimate_bounds_xla_every_method(method, num_pulses, num_range, scene):
     assert 1.0 <= ratio <= 3.0, ratio
 
 
-@pytest.mark.parametrize("method", ["omega_k", "backprojection"])
+@pytest.mark.parametrize("method", ["omega_k", "omega_k squinted", "backprojection"])
 def test_focus_estimate_bounds_xla(method):
+    """The estimate is 1–3× XLA's own; ω-k squinted with its padding and a κ grid twice
+    as wide as well."""
     num_pulses, num_range = 128, 128
     radar = _radar()
+    padding, oversampling = (0, 1)
+    if method == "omega_k squinted":
+        method, padding, oversampling = "omega_k", 150, 2
     data = jnp.zeros((num_pulses, num_range), jnp.complex128)
     azimuth = jnp.arange(num_pulses) * 0.25
     ranges = 5100.0 + jnp.arange(num_range) * float(radar.range_spacing)
     n_fft = range_fft_length(radar, num_range)
     if method == "omega_k":
         lowered = _focus._focus_omega_k.lower(radar, data, azimuth, ranges, sj.Motion(), None,
-                                              n_fft, True)
+                                              n_fft, True,
+                                              _focus.squint_image_offsets(radar, ranges),
+                                              oversampling, padding)
     else:
         lowered = _focus._focus_backprojection.lower(radar, data, azimuth, ranges, sj.Motion(),
                                                      azimuth, ranges, 8, n_fft)
     estimate = _memory.focus_estimate(method, num_pulses, num_range, n_fft,
-                                      image_shape=(num_pulses, num_range), upsample=8)
+                                      image_shape=(num_pulses, num_range), upsample=8,
+                                      azimuth_padding=padding, kappa_oversampling=oversampling)
     ratio = estimate.total / _xla_bytes(lowered.compile())
     assert 1.0 <= ratio <= 3.0, ratio
