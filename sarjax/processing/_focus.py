@@ -195,12 +195,15 @@ def moco_aperture_phase(radar, motion, num_pulses):
     """Budget ``moco_aperture_phase`` [rad] of ω-k's motion compensation: the phase MoCo
     leaves across the processed aperture. MoCo moves each pulse's echo by the deviation
     along the beam centre, cos φ_d δ(x'); a target seen at θ = φ_d + Δθ moves by cos θ δ,
-    so over the PRF band's half-span Δθ ≤ θ_a = λ / (4 Δx cos φ_d) the residual is at
-    most ``k₀ max|δ| (|sin φ_d| θ_a + cos φ_d θ_a²/2)`` (δ the first-order deviation
-    δr(x')). Calibrated against the exact back-projection on the actual track (512 × 128,
-    smooth Δy, Δz of 0.5–30 cm rms, 0–40° of squint, 40 draws): 0.23 rad or less gave
-    −34 dB or better, 0.26 rad −25.9 and −32.2 dB, 0.29 rad −26.8 dB, 0.48–1.9 rad −11 to
-    −29 dB, 3.2 rad −8 dB (broadside 30 cm rms: 0.13 rad, −40 dB). None where traced."""
+    so over the PRF band's half-span Δθ ≤ θ_a = λ / (4 Δx cos φ_d) the residual is
+    ``k₀ max|δ| (|sin φ_d| θ_a + cos φ_d θ_a²/6)`` (δ the first-order deviation δr(x');
+    the linear term at its edge value, a shift of the response, the quadratic one, a
+    defocus, at about its rms over the band). Calibrated against the exact
+    back-projection on the actual track (512 × 128, smooth Δy, Δz, uniform weighting):
+    squinted (0.5–30 cm rms, 0–40°, 40 draws) 0.23 rad or less gave −34 dB or better,
+    0.26 rad −25.9 and −32.2 dB, 0.29 rad −26.8 dB, 0.48–1.9 rad −11 to −29 dB, 3.2 rad
+    −8 dB; broadside (0.3–5 m rms) 0.07–0.16 rad −30 to −43 dB, 0.29–0.32 rad −24 and
+    −28 dB, 0.73–0.80 rad −16 and −20 dB. None where traced."""
     dy, dz, _ = motion.resolve(num_pulses)
     try:
         deviation = np.asarray(geometry.reference_deviation(dy, dz, radar))
@@ -211,7 +214,7 @@ def moco_aperture_phase(radar, motion, num_pulses):
     half_span = wavelength / (4 * spacing * math.cos(squint))
     k0 = 4 * math.pi / wavelength
     return k0 * float(np.max(np.abs(deviation))) * (
-        abs(math.sin(squint)) * half_span + math.cos(squint) * half_span**2 / 2)
+        abs(math.sin(squint)) * half_span + math.cos(squint) * half_span**2 / 6)
 
 
 MOCO_APERTURE_PHASE_THRESHOLD = 0.2  # [rad], moco_aperture_phase's calibration above
