@@ -24,10 +24,10 @@ def _patch(x, r, n_az=96, n_rg=64):
             r + (np.arange(n_rg) - n_rg // 2) * float(RADAR.range_spacing))
 
 
-def _motion(rms, seed, pointing=False):
-    dy = sj.smooth_deviation(AZIMUTH, key=seed, rms=rms, max_cycles=2, aperture=160.0)
-    dz = sj.smooth_deviation(AZIMUTH, key=seed + 10, rms=rms, max_cycles=2, aperture=160.0)
-    daz = sj.seed_pointing_jitter(RADAR, AZIMUTH) if pointing else None
+def _motion(rms, seed, pointing=False, azimuth=AZIMUTH):
+    dy = sj.smooth_deviation(azimuth, key=seed, rms=rms, max_cycles=2, aperture=160.0)
+    dz = sj.smooth_deviation(azimuth, key=seed + 10, rms=rms, max_cycles=2, aperture=160.0)
+    daz = sj.seed_pointing_jitter(RADAR, azimuth) if pointing else None
     return sj.Motion(horizontal=dy, vertical=dz, pointing=daz)
 
 
@@ -166,6 +166,7 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 _SQUINT_SIZE = dict(num_pulses=512, num_range=128)
+_SQUINT_AZIMUTH = (np.arange(512) - 256) * float(RADAR.azimuth_spacing)
 
 
 def _omega_k_against_exact(squint_deg, dx, dr, weighting, motion=None):
@@ -212,6 +213,10 @@ def test_omega_k_any_squint_matches_exact_backprojection(squint, dx, dr, weighti
     target). Before ω-k took the squint into account, its image at 2° lay wrapped 256 m
     away, at 30° outside its grid, without a warning; before its κ grid was widened, from
     24° on (where a row's support outgrows the range samples' band) −28 dB at 30°."""
+    _check_squint(squint, dx, dr, weighting)
+
+
+def _check_squint(squint, dx, dr, weighting):
     nmse, phase, (off_x, off_r), same_peak = _omega_k_against_exact(squint, dx, dr, weighting)
     assert same_peak and nmse < -35.0, (squint, dx, dr, weighting, nmse, same_peak)
     assert abs(phase) < 0.02, (squint, phase)
@@ -256,16 +261,7 @@ def test_omega_k_warns_beyond_its_squint_budget():
        weighting=st.sampled_from(["uniform", "antenna"]))
 def test_omega_k_any_squint_matches_exact_backprojection_many(squint, dx, dr, weighting):
     """:func:`test_omega_k_any_squint_matches_exact_backprojection`, 25 draws."""
-    test_omega_k_any_squint_matches_exact_backprojection.hypothesis.inner_test(
-        squint, dx, dr, weighting)
-
-
-def _moco_case(squint, rms, seed):
-    n = _SQUINT_SIZE["num_pulses"]
-    x = (np.arange(n) - n / 2) * 0.25
-    dy = sj.smooth_deviation(x, key=seed, rms=rms, max_cycles=2, aperture=160.0)
-    dz = sj.smooth_deviation(x, key=seed + 10, rms=rms, max_cycles=2, aperture=160.0)
-    return sj.Motion(horizontal=dy, vertical=dz)
+    _check_squint(squint, dx, dr, weighting)
 
 
 def _check_moco_budget(squint, rms, seed, dx, dr):
@@ -273,7 +269,7 @@ def _check_moco_budget(squint, rms, seed, dx, dr):
     back-projection on the actual track (the simulators' promise for their raw data)."""
     import warnings
 
-    motion = _moco_case(squint, rms, seed)
+    motion = _motion(rms, seed, azimuth=_SQUINT_AZIMUTH)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         nmse = _omega_k_against_exact(squint, dx, dr, "uniform", motion)[0]
@@ -305,7 +301,7 @@ def test_omega_k_moco_without_warning_is_accurate_many(squint, rms, seed, dx, dr
 def test_omega_k_moco_budget_warns():
     """20° of squint and 10 cm rms deviations: ``moco_aperture_phase`` ≈ 1 rad, a
     FocusWarning naming it (the image −17 dB from the exact one); strict refuses."""
-    motion = _moco_case(20.0, 0.1, 1)
+    motion = _motion(0.1, 1, azimuth=_SQUINT_AZIMUTH)
     with pytest.warns(sj.FocusWarning, match=r"moco_aperture_phase = .* > 0\.2 rad"):
         _omega_k_against_exact(20.0, 3.3, 30.1, "uniform", motion)
     radar = sj.presets.airborne_xband(**_SQUINT_SIZE, squint=np.deg2rad(20.0))

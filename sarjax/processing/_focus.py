@@ -137,6 +137,8 @@ def focus(
     """
     motion = Motion() if motion is None else motion
     _validate.check_focus(radar, raw, motion)
+    if not isinstance(strict, (bool, np.bool_)):
+        raise ValueError(f"strict={strict!r} must be True or False")
     if motion_compensation not in _COMPENSATION:
         raise ValueError(
             f"motion_compensation={motion_compensation!r}; choose one of {_COMPENSATION}"
@@ -223,8 +225,6 @@ MOCO_APERTURE_PHASE_THRESHOLD = 0.2  # [rad], moco_aperture_phase's calibration 
 def _check_omega_k(radar, motion, order, num_pulses, strict):
     """Warn (or raise, ``strict``) where ω-k is beyond a measured budget: its squint, and
     with motion compensation ``moco_aperture_phase``."""
-    if not isinstance(strict, (bool, np.bool_)):
-        raise ValueError(f"strict={strict!r} must be True or False")
     broken = []
     try:
         squint = abs(math.degrees(float(radar.squint)))
