@@ -162,7 +162,7 @@ def test_exact_backprojection_of_complex64_raw_data():
 # ω-k at any squint: judged by the exact back-projection of the same raw data
 # --------------------------------------------------------------------------------------
 
-from hypothesis import given, settings  # noqa: E402
+from hypothesis import example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 _SQUINT_SIZE = dict(num_pulses=512, num_range=128)
@@ -223,6 +223,82 @@ def _check_squint(squint, dx, dr, weighting):
     # the brightest sample lies on the response's ridge, which tilts with the squint
     limit = 2 * float(RADAR.range_spacing)
     assert abs(off_x) <= limit and abs(off_r) <= limit, (off_x, off_r)
+
+
+def _whole_image_error(squint_deg, u, v, weighting):
+    """The ω-k image of a point target against the exact back-projection of the same raw
+    data on ω-k's whole grid [dB of a centred target's image energy], the complex gain
+    (a processor constant) fitted on a centred target's pair. The target's place (u, v):
+    fractions of the half-window in azimuth and range from the centre the beam sees, so
+    |u|, |v| > 1 are beyond the window's edge."""
+    squint = np.deg2rad(squint_deg)
+    radar = sj.presets.airborne_xband(**_SQUINT_SIZE, squint=squint)
+    r0 = 5140.0
+    near = r0 / np.cos(squint) - 64 * float(radar.range_spacing)
+    half_x = 256 * float(radar.azimuth_spacing)
+    half_r = 64 * float(radar.range_spacing) * np.cos(squint)
+    images = []
+    for x, r in ((r0 * np.tan(squint), r0), (r0 * np.tan(squint) + u * half_x, r0 + v * half_r)):
+        raw = sj.simulate(radar, _single(x, r), method="time_domain", near_range=near)
+        image = sj.focus(radar, raw, method="omega_k", azimuth_weighting=weighting)
+        exact = sj.focus(radar, raw, method="exact_backprojection", azimuth=image.azimuth,
+                         range=image.range, azimuth_weighting=weighting)
+        images.append((np.asarray(image.data), np.asarray(exact.data)))
+    (test_c, exact_c), (test, exact) = images
+    gain = np.vdot(test_c, exact_c) / np.vdot(test_c, test_c)
+    return 10 * np.log10(np.sum(np.abs(gain * test - exact) ** 2) / np.sum(np.abs(exact_c) ** 2))
+
+
+def _check_whole_image(squint, u, v, weighting):
+    error = _whole_image_error(squint, u, v, weighting)
+    assert error < -35.0, (squint, u, v, weighting, error)
+
+
+_PLACES = st.floats(-1.6, 1.6)  # inside, at the edge of and beyond the window
+
+
+@settings(max_examples=2, deadline=None)
+@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_PLACES,
+       weighting=st.sampled_from(["uniform", "antenna"]))
+@example(squint=70.0, u=0.3, v=0.3, weighting="antenna")  # was −32 dB
+def test_omega_k_whole_image_matches_exact_backprojection(squint, u, v, weighting):
+    """Over the whole image, not only about the peak, and for a target anywhere (inside,
+    at the edge of or beyond the window): ω-k within −35 dB of the exact back-projection
+    (of a centred target's image energy). A row's range migration moves the window by
+    up to r |1/cos θ − 1/cos φ_d| over the PRF band (2200 samples at 70° here): the
+    circular range transform wrapped it across the image, −30 dB at 70° and −11 dB on
+    the high-speed preset at 5°, unseen by a patch about the peak; with each row kept to
+    the image samples its data can reach, −54 dB and −35 dB."""
+    _check_whole_image(squint, u, v, weighting)
+
+
+@pytest.mark.slow
+@settings(max_examples=20, deadline=None)
+@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_PLACES,
+       weighting=st.sampled_from(["uniform", "antenna"]))
+def test_omega_k_whole_image_matches_exact_backprojection_many(squint, u, v, weighting):
+    """:func:`test_omega_k_whole_image_matches_exact_backprojection`, 20 draws."""
+    _check_whole_image(squint, u, v, weighting)
+
+
+@pytest.mark.slow
+def test_omega_k_high_speed_preset_squinted():
+    """The high-speed preset (600 MHz at 800 km) at 5° of squint, a 128-sample window: a
+    row spreads a point over 2070 samples and moves the window by 1800; the image was
+    −11 dB from the exact back-projection, now −35 dB."""
+    radar = sj.presets.highspeed_xband(num_pulses=1024, num_range=128, squint=np.deg2rad(5.0))
+    r0 = float(radar.reference_range)
+    near = r0 / np.cos(radar.squint) - 64 * float(radar.range_spacing)
+    raw = sj.simulate(radar, _single(r0 * np.tan(float(radar.squint)), r0),
+                      method="time_domain", near_range=near)
+    image = sj.focus(radar, raw, method="omega_k", azimuth_weighting="antenna")
+    exact = np.asarray(sj.focus(radar, raw, method="exact_backprojection",
+                                azimuth=image.azimuth, range=image.range,
+                                azimuth_weighting="antenna").data)
+    test = np.asarray(image.data)
+    gain = np.vdot(test, exact) / np.vdot(test, test)
+    error = 10 * np.log10(np.sum(np.abs(gain * test - exact) ** 2) / np.sum(np.abs(exact) ** 2))
+    assert error < -30.0, error
 
 
 @pytest.mark.parametrize("squint", [10.0, -15.0])

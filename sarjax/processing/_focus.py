@@ -16,7 +16,13 @@ from ..motion import Motion
 from . import _motion_compensation as moco
 from ._backprojection import backprojection
 from ._exact_backprojection import backprojection_exact
-from ._omega_k import azimuth_aperture, kappa_oversampling, omega_k, squint_image_offsets
+from ._omega_k import (
+    azimuth_aperture,
+    kappa_oversampling,
+    omega_k,
+    range_spread,
+    squint_image_offsets,
+)
 from ._range_compression import range_compress, range_fft_length
 
 _COMPENSATION = (None, "none", "first_order", "second_order")
@@ -31,7 +37,7 @@ OMEGA_K_MAX_SQUINT_DEG = 70.0
 
 @eqx.filter_jit
 def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize, offsets,
-                   oversampling=1, padding=0):
+                   oversampling=1, padding=0, spread=0):
     num_pulses = data.shape[0]
     compressed = range_compress(radar, data, n_fft=n_fft)
     if order in ("first_order", "second_order"):
@@ -41,7 +47,7 @@ def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize,
             compressed = moco.second_order(radar, compressed, dy, dz, range_)
     return omega_k(radar, compressed, azimuth, range_, equalize_pattern=equalize,
                    offsets=offsets, kappa_oversampling=oversampling,
-                   azimuth_padding=padding)
+                   azimuth_padding=padding, range_spread=spread)
 
 
 @eqx.filter_jit
@@ -152,12 +158,14 @@ def focus(
     if method in ("omega_k", "backprojection", "exact_backprojection"):
         image_shape = (data.shape[0] if azimuth is None else int(jnp.size(azimuth)),
                        data.shape[1] if range is None else int(jnp.size(range)))
-        omega_k_sizes = ((azimuth_aperture(radar, raw.range), kappa_oversampling(radar))
-                         if method == "omega_k" else (0, 1))
+        omega_k_sizes = ((azimuth_aperture(radar, raw.range), kappa_oversampling(radar),
+                          range_spread(radar, raw.range))
+                         if method == "omega_k" else (0, 1, 0))
         estimate = _memory.focus_estimate(method, data.shape[0], data.shape[1], n_fft,
                                           image_shape=image_shape, upsample=upsample,
                                           azimuth_padding=omega_k_sizes[0],
-                                          kappa_oversampling=omega_k_sizes[1])
+                                          kappa_oversampling=omega_k_sizes[1],
+                                          range_spread=omega_k_sizes[2])
         limit = _memory.memory_limit(memory_limit)
         if estimate.total > limit:
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
@@ -167,7 +175,7 @@ def focus(
         offsets = squint_image_offsets(radar, raw.range)
         image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft,
                                azimuth_weighting == "uniform", offsets, omega_k_sizes[1],
-                               omega_k_sizes[0])
+                               omega_k_sizes[0], omega_k_sizes[2])
         return Image(data=image, azimuth=raw.azimuth + offsets[0],
                      range=raw.range + offsets[1])
     if method == "backprojection":
