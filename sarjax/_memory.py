@@ -183,11 +183,11 @@ def scene_bytes(scene) -> int:
 
 def focus_estimate(method, num_pulses, num_range, n_fft, *, image_shape=None,
                    upsample=8, azimuth_padding=0, kappa_oversampling=1,
-                   range_spread=0) -> Estimate:
+                   range_transform=None) -> Estimate:
     """Estimated peak memory of :func:`sarjax.focus` [bytes] (complex128 processing).
 
     ω-k: the range-compressed data and ≈ 4 padded (n_x, n_r) spectra (n_x the pulses
-    and ``azimuth_padding``, n_r from ``range_spread``; the Stolt rows
+    and ``azimuth_padding``, n_r ``range_transform``, default 2 N_r; the Stolt rows
     ``kappa_oversampling`` times wider, counted in two of the four); back-projection:
     7 (exact back-projection: 18) complex128 arrays the size of the data and of the image
     (compressed and upsampled pulse blocks, per-pixel ranges and weights), fitted to
@@ -197,9 +197,7 @@ def focus_estimate(method, num_pulses, num_range, n_fft, *, image_shape=None,
     n_data = num_pulses * num_range
     if method == "omega_k":
         n_x = next_fast_len(num_pulses + azimuth_padding)
-        from .processing._omega_k import range_transform_length
-
-        n_r = range_transform_length(num_range, range_spread)
+        n_r = next_fast_len(2 * num_range) if range_transform is None else range_transform
         workspace = _C128 * (2 * num_pulses * n_fft + (2 + 2 * kappa_oversampling) * n_x * n_r)
     else:
         arrays = 7.0 if method == "backprojection" else 18.0

@@ -21,6 +21,7 @@ from ._omega_k import (
     kappa_oversampling,
     omega_k,
     range_spread,
+    range_transform_length,
     squint_image_offsets,
 )
 from ._range_compression import range_compress, range_fft_length
@@ -165,7 +166,8 @@ def focus(
                                           image_shape=image_shape, upsample=upsample,
                                           azimuth_padding=omega_k_sizes[0],
                                           kappa_oversampling=omega_k_sizes[1],
-                                          range_spread=omega_k_sizes[2])
+                                          range_transform=range_transform_length(
+                                              data.shape[1], omega_k_sizes[2]))
         limit = _memory.memory_limit(memory_limit)
         if estimate.total > limit:
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
