@@ -156,6 +156,9 @@ def focus(
     if data.ndim != 2:
         raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
     n_fft = range_fft_length(radar, data.shape[-1])
+    if method == "omega_k":  # its budgets first: beyond them its sizes can be large
+        order = None if motion.is_ideal else (motion_compensation or "none")
+        _check_omega_k(radar, motion, order, data.shape[0], strict)
     if method in ("omega_k", "backprojection", "exact_backprojection"):
         image_shape = (data.shape[0] if azimuth is None else int(jnp.size(azimuth)),
                        data.shape[1] if range is None else int(jnp.size(range)))
@@ -172,8 +175,6 @@ def focus(
         if estimate.total > limit:
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
     if method == "omega_k":
-        order = None if motion.is_ideal else (motion_compensation or "none")
-        _check_omega_k(radar, motion, order, data.shape[0], strict)
         offsets = squint_image_offsets(radar, raw.range)
         image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft,
                                azimuth_weighting == "uniform", offsets, omega_k_sizes[1],
