@@ -232,6 +232,59 @@ def _check_squint(squint, dx, dr, weighting):
     assert abs(off_x) <= limit and abs(off_r) <= limit, (off_x, off_r)
 
 
+def _direct_matched_filter(radar, raw, x, ranges):
+    """The 2-D matched filter of the recorded samples at pixels (x, r) (h = 0, straight
+    track, no weighting), summed directly in NumPy float64: for each pulse p at x'_p the
+    samples correlated with the chirp centred on the pixel's range R_p = √((x'_p − x)² + r²),
+    ``(1/N) Σ_p Σ_k raw[p, k] c*(r'_k − R_p) e^{jk₀(R_p − r)} / Σ|c|²`` (the normalisation of
+    :func:`sarjax.processing.range_compress`)."""
+    data = np.asarray(raw.data, complex)
+    pulses, samples = np.asarray(raw.azimuth, float), np.asarray(raw.range, float)
+    rate, half = float(radar.chirp_rate), float(radar.pulse_half_length)
+    k0, dr = float(radar.wavenumber), float(radar.range_spacing)
+    grid = np.arange(-int(half / dr) - 2, int(half / dr) + 3) * dr
+    norm = np.sum(np.abs(grid) < half)
+    values = []
+    for r in ranges:
+        slant = np.hypot(pulses - x, r)
+        offset = samples[None, :] - slant[:, None]
+        replica = np.where(np.abs(offset) < half, np.exp(-1j * rate * offset**2), 0.0)
+        compressed = np.sum(data * np.conj(replica), axis=1) / norm
+        values.append(np.mean(compressed * np.exp(1j * k0 * (slant - r))))
+    return np.array(values)
+
+
+@settings(max_examples=3, deadline=None)
+@given(squint=st.floats(-45.0, 45.0),
+       v=st.sampled_from([-1.0, 1.0]).flatmap(lambda side: st.floats(0.8, 1.3).map(
+           lambda depth: side * depth)))  # the edge band: at, inside or beyond either end
+@example(squint=-11.3, v=1.0)  # was 39 % of the peak from the matched filter
+def test_exact_backprojection_is_the_matched_filter_up_to_the_window_edge(squint, v):
+    """The exact back-projection is the 2-D matched filter of the recorded samples, also
+    for a target whose echo the window records in part (v: its place in half-windows of
+    range, |v| ≈ 1 at the edge): the window's range lags that the matched filter reaches
+    beyond its ends are kept (:func:`sarjax.processing._focus.recorded_lags`). Cropped to
+    the window, the compressed line of a target at the edge stopped at its peak and its
+    interpolation rang across the line: at 11° of squint, v = 1, the image at the edge was
+    39 % of the peak from the matched filter; now 0.5 % (the linear interpolation of the
+    8× upsampled line), against the direct sum on the target's row: both ends of the
+    window and its middle."""
+    angle = np.deg2rad(squint)
+    radar = sj.presets.airborne_xband(**_SQUINT_SIZE, squint=angle)
+    r0, dr = 5140.0, float(radar.range_spacing)
+    near = r0 / np.cos(angle) - 64 * dr
+    x, r = r0 * np.tan(angle), r0 + v * 64 * dr * np.cos(angle)
+    raw = sj.simulate(radar, _single(x, r), method="time_domain", near_range=near)
+    ranges = r0 + (np.r_[0:4, 62:66, 124:128] - 64) * dr
+    image = np.asarray(sj.focus(radar, raw, method="exact_backprojection",
+                                azimuth=np.array([x]), range=ranges,
+                                azimuth_weighting="antenna").data)[0]
+    direct = _direct_matched_filter(radar, raw, x, ranges)
+    peak = np.abs(_direct_matched_filter(radar, raw, x, [r]))[0]
+    # the linear interpolation of the 8x upsampled compressed line: ≈ 0.5 % of the peak
+    assert np.max(np.abs(image - direct)) <= 0.02 * peak, (squint, v, image, direct, peak)
+
+
 def _whole_image_error(squint_deg, u, v, weighting):
     """The ω-k image of a point target against the exact back-projection of the same raw
     data on ω-k's whole grid [dB of a centred target's image energy], the complex gain
@@ -256,31 +309,52 @@ def _whole_image_error(squint_deg, u, v, weighting):
     return 10 * np.log10(np.sum(np.abs(gain * test - exact) ** 2) / np.sum(np.abs(exact_c) ** 2))
 
 
-def _check_whole_image(squint, u, v, weighting):
+def _check_whole_image(squint, u, v, weighting, limit=-35.0):
     error = _whole_image_error(squint, u, v, weighting)
-    assert error < -35.0, (squint, u, v, weighting, error)
+    assert error < limit, (squint, u, v, weighting, error)
 
 
 _PLACES = st.floats(-1.6, 1.6)  # inside, at the edge of and beyond the window
+# in range, away from the window's ends (the edge band has its own test below)
+_RANGE_PLACES = st.one_of(st.floats(-0.8, 0.8),
+                          st.sampled_from([-1.0, 1.0]).flatmap(
+                              lambda side: st.floats(1.2, 1.6).map(lambda d: side * d)))
+_RANGE_EDGE = st.sampled_from([-1.0, 1.0]).flatmap(
+    lambda side: st.floats(0.8, 1.2).map(lambda d: side * d))
 
 
 @settings(max_examples=2, deadline=None)
-@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_PLACES,
+@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_RANGE_PLACES,
        weighting=st.sampled_from(["uniform", "antenna"]))
 def test_omega_k_whole_image_matches_exact_backprojection(squint, u, v, weighting):
-    """Over the whole image, not only about the peak, and for a target anywhere (inside,
-    at the edge of or beyond the window): ω-k within −35 dB of the exact back-projection
-    (of a centred target's image energy). A row's range migration moves the window by
-    up to r |1/cos θ − 1/cos φ_d| over the PRF band (2200 samples at 70° here): the
+    """Over the whole image, not only about the peak, and for a target anywhere in
+    azimuth (inside, at the edge of or beyond the window) and in range inside it or beyond
+    its ends (the band about each end: next test): ω-k within −35 dB of the exact
+    back-projection (of a centred target's image energy). A row's range migration moves
+    the window by up to r |1/cos θ − 1/cos φ_d| over the PRF band (2200 samples at 70°): the
     circular range transform wrapped it across the image, −30 dB at 70° and −11 dB on
     the high-speed preset at 5°, unseen by a patch about the peak; with each row kept to
     the image samples its data can reach, −54 dB and −35 dB (the 70° case: slow tier)."""
     _check_whole_image(squint, u, v, weighting)
 
 
+@settings(max_examples=2, deadline=None)
+@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_RANGE_EDGE,
+       weighting=st.sampled_from(["uniform", "antenna"]))
+@example(squint=-11.3, u=0.0, v=-1.0, weighting="uniform")  # was −13 dB
+def test_omega_k_whole_image_at_the_range_edge(squint, u, v, weighting):
+    """A target within 0.2 half-windows of either end of the range window, whose echo the
+    window records in part: ω-k within −32 dB of the exact back-projection over the whole
+    image (measured −34 to −77 dB over 20 draws, 0–70°, the worst at 5–15° of squint).
+    Both focusers keep the matched filter's lags beyond the window
+    (:func:`sarjax.processing._focus.recorded_lags`); cropped to it they were −13 dB
+    apart at 11° (v = −1) and each 6–9 dB from the matched filter itself."""
+    _check_whole_image(squint, u, v, weighting, limit=-32.0)
+
+
 @pytest.mark.slow
 @settings(max_examples=20, deadline=None)
-@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_PLACES,
+@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_RANGE_PLACES,
        weighting=st.sampled_from(["uniform", "antenna"]))
 @example(squint=70.0, u=0.3, v=0.3, weighting="antenna")  # was −32 dB
 def test_omega_k_whole_image_matches_exact_backprojection_many(squint, u, v, weighting):
@@ -292,7 +366,9 @@ def test_omega_k_whole_image_matches_exact_backprojection_many(squint, u, v, wei
 def test_omega_k_high_speed_preset_squinted():
     """The high-speed preset (600 MHz at 800 km) at 5° of squint, a 128-sample window: a
     row spreads a point over 2070 samples and moves the window by 1800; the image was
-    −11 dB from the exact back-projection, now −35 dB."""
+    −11 dB from the exact back-projection, −35 dB with each row kept to what its data can
+    reach, −46 dB with the matched filter's lags beyond the window kept as well (the
+    window holds 0.4 % of the 28 800-sample chirp; at 1° of squint −27.5 → −73 dB)."""
     radar = sj.presets.highspeed_xband(num_pulses=1024, num_range=128, squint=np.deg2rad(5.0))
     r0 = float(radar.reference_range)
     near = r0 / np.cos(radar.squint) - 64 * float(radar.range_spacing)
@@ -304,7 +380,7 @@ def test_omega_k_high_speed_preset_squinted():
                                 azimuth_weighting="antenna").data)
     test = np.asarray(image.data)
     error = nmse_db(_gain(test, exact) * test, exact)
-    assert error < -30.0, error
+    assert error < -40.0, error
 
 
 @pytest.mark.parametrize("squint", [10.0, -15.0])

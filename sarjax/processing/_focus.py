@@ -74,6 +74,35 @@ def _focus_exact_backprojection(radar, data, azimuth, range_, motion, image_azim
     )
 
 
+def recorded_lags(radar, num_range: int) -> int:
+    """Range lags (samples, static, from concrete values) that the matched filter of a
+    window still reaches beyond each of its ends: half a chirp + 1, at most
+    ``max(2 num_range, 256)`` (a window that records a small part of a long chirp: the
+    high-speed preset's 28 800-sample chirp on a 128-sample window would otherwise take
+    ω-k's transforms to 29 000 samples). A target whose echo the window records in part
+    correlates with the recorded part at lags outside the window; the focusers keep them
+    (the window zero-padded by as many samples each side before range compression: nothing
+    more is recorded there) so that an image equals the 2-D matched filter of the recorded
+    samples up to the window's edge. Cropped to the window instead, the compressed line of
+    a target near an end stopped short: its interpolation then rang across the whole line,
+    and the pulses whose echo had migrated past the end were lost, 6–23 dB from the
+    matched filter for a target at the edge (airborne preset, 512 × 128, 0–20° of squint;
+    0.5 % of the peak with the lags, ``tests/test_focusing.py``)."""
+    half_chirp = int(math.ceil(float(radar.chirp_samples) / 2)) + 1
+    return min(half_chirp, max(2 * int(num_range), 256))
+
+
+def _with_recorded_lags(radar, data, range_axis):
+    """(data zero-padded by :func:`recorded_lags` samples at each end of the range axis,
+    the range axis extended with the same spacing, the padding)."""
+    pad = recorded_lags(radar, data.shape[-1])
+    dr = radar.range_spacing
+    steps = jnp.arange(1, pad + 1) * dr
+    extended = jnp.concatenate([range_axis[0] - steps[::-1], range_axis,
+                                range_axis[-1] + steps])
+    return jnp.pad(data, ((0, 0), (pad, pad))), extended, pad
+
+
 def range_compressed(radar, raw: RawData) -> RawData:
     """Matched-filter range compression of raw data (same grid; physics.md §11)."""
     n_fft = range_fft_length(radar, raw.data.shape[-1])
@@ -152,18 +181,21 @@ def focus(
         )
     if azimuth_weighting not in ("antenna", "uniform"):
         raise ValueError(f"azimuth_weighting={azimuth_weighting!r}; choose 'antenna' or 'uniform'")
+    azimuth_weighting = str(azimuth_weighting)  # a NumPy string too (a static argument)
     data = jnp.asarray(raw.data)
     if data.ndim != 2:
         raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
-    n_fft = range_fft_length(radar, data.shape[-1])
     if method == "omega_k":  # its budgets first: beyond them its sizes can be large
         order = None if motion.is_ideal else (motion_compensation or "none")
         _check_omega_k(radar, motion, order, data.shape[0], strict)
     if method in ("omega_k", "backprojection", "exact_backprojection"):
         image_shape = (data.shape[0] if azimuth is None else int(jnp.size(azimuth)),
                        data.shape[1] if range is None else int(jnp.size(range)))
-        omega_k_sizes = ((azimuth_aperture(radar, raw.range), kappa_oversampling(radar),
-                          range_spread(radar, raw.range))
+        window_range = jnp.asarray(raw.range)
+        data, lag_range, lags = _with_recorded_lags(radar, data, window_range)
+        n_fft = range_fft_length(radar, data.shape[-1])
+        omega_k_sizes = ((azimuth_aperture(radar, lag_range), kappa_oversampling(radar),
+                          range_spread(radar, lag_range))
                          if method == "omega_k" else (0, 1, 0))
         estimate = _memory.focus_estimate(method, data.shape[0], data.shape[1], n_fft,
                                           image_shape=image_shape, upsample=upsample,
@@ -175,18 +207,19 @@ def focus(
         if estimate.total > limit:
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
     if method == "omega_k":
-        offsets = squint_image_offsets(radar, raw.range)
-        image = _focus_omega_k(radar, data, raw.azimuth, raw.range, motion, order, n_fft,
+        offsets = squint_image_offsets(radar, window_range)
+        image = _focus_omega_k(radar, data, raw.azimuth, lag_range, motion, order, n_fft,
                                azimuth_weighting == "uniform", offsets, omega_k_sizes[1],
                                omega_k_sizes[0], omega_k_sizes[2])
-        return Image(data=image, azimuth=raw.azimuth + offsets[0],
-                     range=raw.range + offsets[1])
+        return Image(data=image[:, lags:lags + window_range.shape[0]],
+                     azimuth=raw.azimuth + offsets[0], range=window_range + offsets[1])
     if method == "backprojection":
         image_azimuth = (raw.azimuth if azimuth is None
                          else jnp.atleast_1d(jnp.asarray(azimuth, float)))
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_backprojection(
-            radar, data, raw.azimuth, raw.range, motion, image_azimuth, image_range, upsample, n_fft
+            radar, data, raw.azimuth, lag_range, motion, image_azimuth, image_range, upsample,
+            n_fft
         )
         return Image(data=image, azimuth=image_azimuth, range=image_range)
     if method == "exact_backprojection":
@@ -194,7 +227,7 @@ def focus(
                          else jnp.atleast_1d(jnp.asarray(azimuth, float)))
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_exact_backprojection(
-            radar, data, raw.azimuth, raw.range, motion, image_azimuth, image_range, upsample,
+            radar, data, raw.azimuth, lag_range, motion, image_azimuth, image_range, upsample,
             n_fft, bool(stop_and_go), azimuth_weighting, bool(acquisition_doppler),
         )
         return Image(data=image, azimuth=image_azimuth, range=image_range)
