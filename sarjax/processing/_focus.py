@@ -38,7 +38,9 @@ OMEGA_K_MAX_SQUINT_DEG = 70.0
 
 @eqx.filter_jit
 def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize, offsets,
-                   oversampling=1, padding=0, spread=0):
+                   oversampling=1, padding=0, spread=0, lags=0):
+    """ω-k of the window zero-padded by ``lags`` samples each side (static), the image
+    cropped back to the window's columns."""
     num_pulses = data.shape[0]
     compressed = range_compress(radar, data, n_fft=n_fft)
     if order in ("first_order", "second_order"):
@@ -46,9 +48,10 @@ def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize,
         compressed = moco.first_order(radar, compressed, dy, dz, range_)
         if order == "second_order":
             compressed = moco.second_order(radar, compressed, dy, dz, range_)
-    return omega_k(radar, compressed, azimuth, range_, equalize_pattern=equalize,
-                   offsets=offsets, kappa_oversampling=oversampling,
-                   azimuth_padding=padding, range_spread=spread)
+    image = omega_k(radar, compressed, azimuth, range_, equalize_pattern=equalize,
+                    offsets=offsets, kappa_oversampling=oversampling,
+                    azimuth_padding=padding, range_spread=spread)
+    return image[:, lags:image.shape[1] - lags]
 
 
 @eqx.filter_jit
@@ -210,8 +213,8 @@ def focus(
         offsets = squint_image_offsets(radar, window_range)
         image = _focus_omega_k(radar, data, raw.azimuth, lag_range, motion, order, n_fft,
                                azimuth_weighting == "uniform", offsets, omega_k_sizes[1],
-                               omega_k_sizes[0], omega_k_sizes[2])
-        return Image(data=image[:, lags:lags + window_range.shape[0]],
+                               omega_k_sizes[0], omega_k_sizes[2], lags)
+        return Image(data=image,
                      azimuth=raw.azimuth + offsets[0], range=window_range + offsets[1])
     if method == "backprojection":
         image_azimuth = (raw.azimuth if azimuth is None
