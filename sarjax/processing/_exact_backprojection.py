@@ -37,7 +37,7 @@ def backprojection_exact(
     radar, raw, azimuth_axis, range_axis, horizontal, vertical, image_azimuth, image_range,
     *, stop_and_go: bool = True, azimuth_weighting: str = "uniform",
     pattern_floor: float = 0.05, upsample: int = 8, pulse_chunk: int = 16,
-    n_fft: int | None = None, acquisition_doppler: bool = False,
+    n_fft: int | None = None, acquisition_doppler: bool = False, lags: int = 0,
 ):
     """Range-compress ``raw`` and back-project it onto an (x, r) grid (pulse chunks: the
     compressed data is never held whole).
@@ -46,7 +46,8 @@ def backprojection_exact(
         radar: the :class:`~sarjax.Radar` (its squint sets the weighting's band centre).
         raw: (azimuth, range) raw samples.
         azimuth_axis: (azimuth,) pulse positions x' [m].
-        range_axis: (range,) r' [m], uniform.
+        range_axis: (range + 2 lags,) r' [m], uniform: the window's samples extended by
+            ``lags`` at each end.
         horizontal, vertical: (azimuth,) actual track deviations Δy, Δz [m].
         image_azimuth: (n_x,) output azimuths x [m]; image_range: (n_r,) output
             closest-approach slant ranges r [m] (pixels at h = 0).
@@ -56,6 +57,8 @@ def backprojection_exact(
         upsample: range upsampling before linear interpolation.
         pulse_chunk: pulses processed together.
         n_fft: range FFT length of the compression (static).
+        lags: samples of the compressed lines kept beyond each end of the window
+            (static; :func:`sarjax.processing.range_compress`).
         acquisition_doppler: the output grid is in the Acquisition-Doppler geometry of seed
             002 eq. 1: ``image_azimuth`` is the azimuth where the beam centre crosses the
             pixel and ``image_range`` its range along the beam centre; the pixel is at
@@ -108,7 +111,7 @@ def backprojection_exact(
 
     def body(image, block):
         lines, xs, dys, dzs, ok = block
-        compressed = range_compress(radar, lines, n_fft=n_fft)
+        compressed = range_compress(radar, lines, n_fft=n_fft, lags=lags)
         contributions = jax.vmap(one_pulse)((compressed, xs, dys, dzs))
         # phases are formed in float64; the image accumulates in the raw data's precision
         summed = jnp.sum(jnp.where(ok[:, None], contributions, 0.0), axis=0)

@@ -39,10 +39,10 @@ OMEGA_K_MAX_SQUINT_DEG = 70.0
 @eqx.filter_jit
 def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize, offsets,
                    oversampling=1, padding=0, spread=0, lags=0):
-    """ω-k of the window zero-padded by ``lags`` samples each side (static), the image
-    cropped back to the window's columns."""
+    """ω-k of the window's compressed lines with ``lags`` samples beyond each end (static;
+    ``range_`` the extended axis), the image cropped back to the window's columns."""
     num_pulses = data.shape[0]
-    compressed = range_compress(radar, data, n_fft=n_fft)
+    compressed = range_compress(radar, data, n_fft=n_fft, lags=lags)
     if order in ("first_order", "second_order"):
         dy, dz, _ = motion.resolve(num_pulses)
         compressed = moco.first_order(radar, compressed, dy, dz, range_)
@@ -56,9 +56,9 @@ def _focus_omega_k(radar, data, azimuth, range_, motion, order, n_fft, equalize,
 
 @eqx.filter_jit
 def _focus_backprojection(radar, data, azimuth, range_, motion, image_azimuth, image_range,
-                          upsample, n_fft):
+                          upsample, n_fft, lags=0):
     dy, dz, _ = motion.resolve(data.shape[0])
-    compressed = range_compress(radar, data, n_fft=n_fft)
+    compressed = range_compress(radar, data, n_fft=n_fft, lags=lags)
     return backprojection(
         radar, compressed, azimuth, range_, dy, dz, image_azimuth, image_range,
         upsample=upsample,
@@ -68,12 +68,12 @@ def _focus_backprojection(radar, data, azimuth, range_, motion, image_azimuth, i
 @eqx.filter_jit
 def _focus_exact_backprojection(radar, data, azimuth, range_, motion, image_azimuth,
                                 image_range, upsample, n_fft, stop_and_go, weighting,
-                                acquisition_doppler):
+                                acquisition_doppler, lags=0):
     dy, dz, _ = motion.resolve(data.shape[0])
     return backprojection_exact(
         radar, data, azimuth, range_, dy, dz, image_azimuth, image_range,
         stop_and_go=stop_and_go, azimuth_weighting=weighting, upsample=upsample, n_fft=n_fft,
-        acquisition_doppler=acquisition_doppler,
+        acquisition_doppler=acquisition_doppler, lags=lags,
     )
 
 
@@ -84,8 +84,8 @@ def recorded_lags(radar, num_range: int) -> int:
     high-speed preset's 28 800-sample chirp on a 128-sample window would otherwise take
     ω-k's transforms to 29 000 samples). A target whose echo the window records in part
     correlates with the recorded part at lags outside the window; the focusers keep them
-    (the window zero-padded by as many samples each side before range compression: nothing
-    more is recorded there) so that an image equals the 2-D matched filter of the recorded
+    (range compression returns them: its transform already holds the window and a chirp)
+    so that an image equals the 2-D matched filter of the recorded
     samples up to the window's edge. Cropped to the window instead, the compressed line of
     a target near an end stopped short: its interpolation then rang across the whole line,
     and the pulses whose echo had migrated past the end were lost, 6–23 dB from the
@@ -95,15 +95,10 @@ def recorded_lags(radar, num_range: int) -> int:
     return min(half_chirp, max(2 * int(num_range), 256))
 
 
-def _with_recorded_lags(radar, data, range_axis):
-    """(data zero-padded by :func:`recorded_lags` samples at each end of the range axis,
-    the range axis extended with the same spacing, the padding)."""
-    pad = recorded_lags(radar, data.shape[-1])
-    dr = radar.range_spacing
-    steps = jnp.arange(1, pad + 1) * dr
-    extended = jnp.concatenate([range_axis[0] - steps[::-1], range_axis,
-                                range_axis[-1] + steps])
-    return jnp.pad(data, ((0, 0), (pad, pad))), extended, pad
+def _lag_axis(radar, range_axis, lags):
+    """(range + 2 lags,) the window's range axis extended by ``lags`` samples at each end."""
+    steps = jnp.arange(1, lags + 1) * radar.range_spacing
+    return jnp.concatenate([range_axis[0] - steps[::-1], range_axis, range_axis[-1] + steps])
 
 
 def range_compressed(radar, raw: RawData) -> RawData:
@@ -195,17 +190,19 @@ def focus(
         image_shape = (data.shape[0] if azimuth is None else int(jnp.size(azimuth)),
                        data.shape[1] if range is None else int(jnp.size(range)))
         window_range = jnp.asarray(raw.range)
-        data, lag_range, lags = _with_recorded_lags(radar, data, window_range)
-        n_fft = range_fft_length(radar, data.shape[-1])
+        lags = recorded_lags(radar, data.shape[1])
+        lag_range = _lag_axis(radar, window_range, lags)
+        n_fft = range_fft_length(radar, data.shape[1])
         omega_k_sizes = ((azimuth_aperture(radar, lag_range), kappa_oversampling(radar),
                           range_spread(radar, lag_range))
                          if method == "omega_k" else (0, 1, 0))
-        estimate = _memory.focus_estimate(method, data.shape[0], data.shape[1], n_fft,
+        n_lagged = data.shape[1] + 2 * lags  # the compressed lines
+        estimate = _memory.focus_estimate(method, data.shape[0], n_lagged, n_fft,
                                           image_shape=image_shape, upsample=upsample,
                                           azimuth_padding=omega_k_sizes[0],
                                           kappa_oversampling=omega_k_sizes[1],
                                           range_transform=range_transform_length(
-                                              data.shape[1], omega_k_sizes[2]))
+                                              n_lagged, omega_k_sizes[2]))
         limit = _memory.memory_limit(memory_limit)
         if estimate.total > limit:
             _memory.refuse(f"focus(method={method!r})", estimate, limit, chunked=False)
@@ -222,7 +219,7 @@ def focus(
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_backprojection(
             radar, data, raw.azimuth, lag_range, motion, image_azimuth, image_range, upsample,
-            n_fft
+            n_fft, lags
         )
         return Image(data=image, azimuth=image_azimuth, range=image_range)
     if method == "exact_backprojection":
@@ -231,7 +228,7 @@ def focus(
         image_range = raw.range if range is None else jnp.atleast_1d(jnp.asarray(range, float))
         image = _focus_exact_backprojection(
             radar, data, raw.azimuth, lag_range, motion, image_azimuth, image_range, upsample,
-            n_fft, bool(stop_and_go), azimuth_weighting, bool(acquisition_doppler),
+            n_fft, bool(stop_and_go), azimuth_weighting, bool(acquisition_doppler), lags,
         )
         return Image(data=image, azimuth=image_azimuth, range=image_range)
     raise ValueError(

@@ -39,7 +39,8 @@ def matched_filter(radar, n_fft: int):
     return jnp.conj(jnp.fft.fft(replica)) / norm
 
 
-def range_compress(radar, data, *, n_fft: int | None = None, keep_spectrum: bool = False):
+def range_compress(radar, data, *, n_fft: int | None = None, keep_spectrum: bool = False,
+                   lags: int = 0):
     """Range-compress raw data by matched filtering.
 
     Args:
@@ -47,16 +48,28 @@ def range_compress(radar, data, *, n_fft: int | None = None, keep_spectrum: bool
         data: (azimuth, range) raw samples.
         n_fft: range FFT length (static; default :func:`range_fft_length`).
         keep_spectrum: return the (azimuth, n_fft) range spectrum instead of samples.
+        lags: samples (static) of the correlation kept beyond each end of the window
+            (:func:`sarjax.processing._focus.recorded_lags`): the transform is linear over
+            the window and a chirp (:func:`range_fft_length`), so the lags before the first
+            sample are the end of its output, those after the last follow it.
 
     Returns:
-        (azimuth, range) range-compressed samples on the same r' grid (an echo centred on
-        R peaks at r' = R), or the spectrum.
+        (azimuth, range + 2 lags) range-compressed samples on the r' grid extended by
+        ``lags`` samples at each end (an echo centred on R peaks at r' = R), or the
+        spectrum.
     """
     n_range = data.shape[-1]
     n_fft = n_fft or range_fft_length(radar, n_range)
+    if n_range + 2 * lags > n_fft:
+        raise ValueError(f"lags={lags} beyond the window's {n_range} samples do not fit in "
+                         f"a range transform of n_fft={n_fft}")
     spectrum = jnp.fft.fft(data, n=n_fft, axis=-1) * jnp.expand_dims(
         matched_filter(radar, n_fft), tuple(range(data.ndim - 1))
     )
     if keep_spectrum:
         return spectrum
-    return jnp.fft.ifft(spectrum, axis=-1)[..., :n_range]
+    compressed = jnp.fft.ifft(spectrum, axis=-1)
+    if not lags:
+        return compressed[..., :n_range]
+    return jnp.concatenate([compressed[..., n_fft - lags:], compressed[..., :n_range + lags]],
+                           axis=-1)
