@@ -157,6 +157,7 @@ def focus(
     acquisition_doppler: bool = False,
     memory_limit=None,
     strict: bool = False,
+    circular_azimuth: bool = False,
 ) -> Image:
     """Focus raw data into a complex image (physics.md §11).
 
@@ -197,6 +198,13 @@ def focus(
         strict: raise, rather than warn (:class:`sarjax.FocusWarning`), where the method
             is outside its measured budget (ω-k beyond 70° of squint, or its motion
             compensation past ``moco_aperture_phase``).
+        circular_azimuth: ω-k only: the raw data is periodic over its pulses, as a
+            Fourier-domain simulation with ``azimuth_padding=0`` makes it (the seeds'
+            circular setup): the azimuth correlation is then taken circularly over the
+            pulses, the consistent inverse, so each echo wrapped in from the far end is
+            focused with the rest of its aperture. Default False: the pulses are padded
+            by the full-band aperture (:func:`~sarjax.processing._omega_k.azimuth_aperture`)
+            so that nothing wraps, which on recorded (not periodic) data is right.
 
     Returns:
         :class:`~sarjax.Image` on (x, r); a target at (x, r) focuses there with phase
@@ -213,6 +221,11 @@ def focus(
     if azimuth_weighting not in ("antenna", "uniform"):
         raise ValueError(f"azimuth_weighting={azimuth_weighting!r}; choose 'antenna' or 'uniform'")
     azimuth_weighting = str(azimuth_weighting)  # a NumPy string too (a static argument)
+    if not isinstance(circular_azimuth, (bool, np.bool_)):
+        raise ValueError(f"circular_azimuth={circular_azimuth!r} must be True or False")
+    if circular_azimuth and method != "omega_k":
+        raise ValueError(f"circular_azimuth=True is an omega_k option; method={method!r} "
+                         "back-projects each pulse where it was")
     data = jnp.asarray(raw.data)
     if data.ndim != 2:
         raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
@@ -226,7 +239,8 @@ def focus(
         lags = recorded_lags(radar, window_range)
         lag_range = _lag_axis(radar, window_range, lags)
         n_fft = range_fft_length(radar, data.shape[1])
-        omega_k_sizes = ((azimuth_aperture(radar, lag_range), kappa_oversampling(radar),
+        omega_k_sizes = ((0 if circular_azimuth else azimuth_aperture(radar, lag_range),
+                          kappa_oversampling(radar),
                           range_spread(radar, lag_range))
                          if method == "omega_k" else (0, 1, 0))
         n_lagged = data.shape[1] + 2 * lags  # the compressed lines
