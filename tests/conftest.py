@@ -112,19 +112,19 @@ def _trim():
 # (the rest keep their order) keeps a long module from running alone at the end while
 # the other worker idles.
 _MODULE_SECONDS = {
-    "test_fidelity.py": 261,
-    "test_docs.py": 232,  # the site's build, every notebook executed
-    "test_inverse.py": 129, "test_validity.py": 107, "test_readme.py": 83,
-    "test_fourier.py": 73, "test_export.py": 64, "test_autofocus.py": 62,
-    "test_gradients_all.py": 61, "test_high_speed.py": 56, "test_sharding.py": 55,
-    "test_campaign.py": 47, "test_nufft.py": 47, "test_squint_fourier.py": 46,
-    "test_compilation_cache.py": 40, "test_gradients.py": 40, "test_cli.py": 40,
-    "test_distributed.py": 39, "test_focusing.py": 37, "test_properties.py": 32,
-    "test_ambiguities.py": 30, "test_memory.py": 26, "test_reproducibility.py": 25,
-    "test_bad_inputs.py": 25, "test_fourier_gradients.py": 23, "test_map_drift.py": 20,
-    "test_chirp_scaling.py": 19, "test_batch.py": 18, "test_models.py": 17,
-    "test_interpolation.py": 10, "test_retrace.py": 10, "test_precision.py": 9,
-    "test_layers.py": 8, "test_sicd.py": 8, "test_time_domain_kernel.py": 6,
+    "test_fidelity.py": 180,
+    "test_docs.py": 171,  # the site's build, every notebook executed
+    "test_validity.py": 103, "test_focusing.py": 89, "test_inverse.py": 75,
+    "test_readme.py": 62, "test_fourier.py": 52, "test_gradients_all.py": 45,
+    "test_export.py": 41, "test_high_speed.py": 35, "test_squint_fourier.py": 34,
+    "test_nufft.py": 33, "test_autofocus.py": 31, "test_distributed.py": 30,
+    "test_sharding.py": 28, "test_campaign.py": 27, "test_gradients.py": 25,
+    "test_ambiguities.py": 24, "test_compilation_cache.py": 24, "test_cli.py": 23,
+    "test_memory.py": 23, "test_properties.py": 20, "test_reproducibility.py": 17,
+    "test_batch.py": 16, "test_fourier_gradients.py": 15, "test_bad_inputs.py": 14,
+    "test_chirp_scaling.py": 14, "test_models.py": 14, "test_map_drift.py": 12,
+    "test_interpolation.py": 11, "test_retrace.py": 8, "test_precision.py": 7,
+    "test_layers.py": 6, "test_sicd.py": 6,
 }
 
 
