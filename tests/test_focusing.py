@@ -312,7 +312,7 @@ def test_exact_backprojection_of_a_short_window_of_a_long_chirp(squint, v):
     band (1 824 samples at 5° of squint), beyond the 256 lags the focusers kept for such a
     window. Those reads were lost, a centred target included (both focusers −14 dB from
     the matched filter over the whole image at 5°); the lags now reach the walk
-    (:func:`sarjax.processing._focus.band_edge_walk`). Against the direct sum on the
+    (:func:`sarjax.processing._omega_k.band_edge_walk`). Against the direct sum on the
     target's row (both ends of the window and its middle), for a target inside or beyond
     the window in range: within 0.1 % of the peak."""
     _check_short_window_of_a_long_chirp(squint, v)

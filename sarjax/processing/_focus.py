@@ -18,6 +18,7 @@ from ._backprojection import backprojection
 from ._exact_backprojection import backprojection_exact
 from ._omega_k import (
     azimuth_aperture,
+    band_edge_walk,
     kappa_oversampling,
     omega_k,
     range_spread,
@@ -78,18 +79,18 @@ def _focus_exact_backprojection(radar, data, azimuth, range_, motion, image_azim
 
 
 def recorded_lags(radar, range_axis) -> int:
-    """Range lags (samples, static, from concrete values) that the matched filter of a
-    window still reaches beyond each of its ends and that the focusers read: half a chirp
-    + 1, at most the larger of ``max(2 n, 256)`` (n the window's samples) and the range walk
-    :func:`band_edge_walk` + 64 samples. A target whose echo the window records in part
-    correlates with the recorded part at lags outside the window; the focusers keep them
-    (range compression returns them: its transform already holds the window and a chirp)
-    so that an image equals the 2-D matched filter of the recorded samples up to the
+    """Range lags (samples, static, from concrete values) that the matched filter of a window
+    still reaches beyond each of its ends and that the focusers read: half a chirp + 1, at
+    most the larger of ``max(2 n, 256)`` (n the window's samples) and the range walk
+    :func:`~._omega_k.band_edge_walk` + 64 samples. A target whose echo the window records
+    in part correlates with the recorded part at lags outside the window; the focusers keep
+    them (range compression returns them: its transform already holds the window and a
+    chirp) so that an image equals the 2-D matched filter of the recorded samples up to the
     window's edge. Cropped to the window instead, the compressed line of a target near an
     end stopped short: its interpolation then rang across the whole line, and the pulses
     whose echo had migrated past the end were lost, 6–23 dB from the matched filter for a
-    target at the edge (airborne preset, 512 × 128, 0–20° of squint; 0.5 % of the peak
-    with the lags, ``tests/test_focusing.py``).
+    target at the edge (airborne preset, 512 × 128, 0–20° of squint; 0.5 % of the peak with
+    the lags, ``tests/test_focusing.py``).
 
     A window that records a small part of a long chirp needs fewer than half a chirp: an
     image sample of the window reads its compressed lines no farther out than the range
@@ -108,24 +109,6 @@ def recorded_lags(radar, range_axis) -> int:
 
 
 _WALK_MARGIN = 64  # samples: the upsampled line's and the interpolation's own spread
-
-
-def band_edge_walk(radar, range_axis) -> int:
-    """Samples (static, from concrete values) by which the slant range of an image sample
-    at the window's far end moves over the PRF band about the Doppler centroid: a target
-    that the beam centre sees at slant range r is seen from the band's edge, at θ with
-    sin θ = (k₀ sin φ_d ± π/Δx)/k₀, at r cos φ_d / cos θ: ``r |cos φ_d / cos θ − 1| / Δr``,
-    the larger of the two edges. 52 samples at broadside on the high-speed preset, 1 824
-    at 5° of squint; 1 on the airborne preset at broadside."""
-    k0 = float(radar.wavenumber)
-    squint = float(radar.squint)
-    far = float(np.max(np.asarray(range_axis)))
-    walk = 0.0
-    for side in (1.0, -1.0):
-        sine = min(abs(k0 * math.sin(squint) + side * math.pi / float(radar.azimuth_spacing))
-                   / k0, 0.999)
-        walk = max(walk, far * abs(math.cos(squint) / math.sqrt(1 - sine**2) - 1))
-    return int(math.ceil(walk / float(radar.range_spacing)))
 
 
 def _lag_axis(radar, range_axis, lags):

@@ -214,15 +214,38 @@ def squint_image_offsets(radar, range_axis):
 
 
 
+def band_edge_sines(radar) -> tuple[float, float]:
+    """(far, near) sin θ of the PRF band's two edges about the Doppler centroid (static,
+    from concrete values): ``(|k₀ sin φ_d| ± π/Δx)/k₀`` in magnitude, the edge farthest
+    from broadside first, each at most 0.999."""
+    k0 = float(radar.wavenumber)
+    centroid = abs(k0 * math.sin(float(radar.squint)))
+    half_band = math.pi / float(radar.azimuth_spacing)
+    return (min((centroid + half_band) / k0, 0.999),
+            min(abs(centroid - half_band) / k0, 0.999))
+
+
+def band_edge_walk(radar, range_axis) -> int:
+    """Samples (static, from concrete values) by which the slant range of an image sample
+    at the window's far end moves over the PRF band about the Doppler centroid: a target
+    that the beam centre sees at slant range r is seen from the band's edge, at θ
+    (:func:`band_edge_sines`), at r cos φ_d / cos θ: ``r |cos φ_d / cos θ − 1| / Δr``,
+    the larger of the two edges. 52 samples at broadside on the high-speed preset, 1 824
+    at 5° of squint; 1 on the airborne preset at broadside."""
+    far = float(np.max(np.asarray(range_axis)))
+    cos_squint = math.cos(float(radar.squint))
+    walk = max(far * abs(cos_squint / math.sqrt(1 - sine**2) - 1)
+               for sine in band_edge_sines(radar))
+    return int(math.ceil(walk / float(radar.range_spacing)))
+
+
 def kappa_oversampling(radar) -> int:
     """m of :func:`omega_k` (static, from concrete values): the smallest m whose κ grid, m
     times the range samples' band 2π/Δr, holds a row's support, the two-way chirp band
     ±2πB/c stretched by 1/cos θ at the PRF band's edge farthest from broadside
     (sin θ = (|k₀ sin φ_d| + π/Δx)/k₀). 1 at broadside on the presets; 2 from ≈ 24° of
     squint on the airborne one (B = 45 MHz sampled at 50 MHz)."""
-    k0 = float(radar.wavenumber)
-    sine = min((abs(k0 * math.sin(float(radar.squint))) + math.pi / float(radar.azimuth_spacing))
-               / k0, 0.999)
+    sine = band_edge_sines(radar)[0]
     half_support = 2 * math.pi * float(radar.bandwidth) / SPEED_OF_LIGHT / math.sqrt(1 - sine**2)
     return max(1, math.ceil(half_support / (math.pi / float(radar.range_spacing))))
 
