@@ -12,7 +12,7 @@ from sarjax.export import GeoReference, to_cphd, to_sicd
 
 R0 = 5140.0  # the airborne preset's reference range [m]
 N_PULSES, N_RANGE = 257, 160
-TARGETS = ((0.0, R0), (6.0, R0 + 45.0))  # (x, r) [m]
+TARGETS = ((0.0, R0), (6.0, R0 + 45.0))  # (x, r) [m]; the first is the brighter
 
 # sarkit 1.8 reads its schema tables through a deprecated importlib call; sarpy (the
 # second reader) warns that its SICD reader is deprecated in favour of sarkit
@@ -32,7 +32,8 @@ def run():
     """A small demo-like acquisition (airborne X-band, two targets, straight track)
     with the middle range sample at the reference range r₀, focused by ω-k."""
     radar = sj.presets.airborne_xband(num_pulses=N_PULSES, num_range=N_RANGE)
-    scene = sj.PointTargets(azimuth=[x for x, _ in TARGETS], range=[r for _, r in TARGETS])
+    scene = sj.PointTargets(azimuth=[x for x, _ in TARGETS], range=[r for _, r in TARGETS],
+                            reflectivity=[1.0, 0.5])
     near = R0 - (N_RANGE // 2) * float(radar.range_spacing)
     raw = sj.simulate(radar, scene, None, near_range=near)
     image = sj.focus(radar, raw)
