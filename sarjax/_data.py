@@ -80,9 +80,16 @@ class RawData(_Gridded):
         method_reason: why ``method="auto"`` chose it (each candidate's estimated cost, or
             the budget that rules it out; :func:`sarjax.explain_choice`); empty
             for a method named by the caller.
+        azimuth_period: pulses over which the data repeat along track, 0 where they do
+            not (recorded data, or a simulation that held every echo). A Fourier-domain
+            simulation with a fixed ``azimuth_padding`` too small for the scene (0: the
+            seeds' circular setup) synthesises on a circular grid of that many pulses
+            and its echoes wrap (the ``azimuth_window`` budget); :func:`sarjax.focus`
+            then correlates circularly over that period, the consistent inverse.
     """
 
     method_reason: str = eqx.field(static=True, default="")
+    azimuth_period: int = eqx.field(static=True, default=0)
 
 
 class Image(_Gridded):
@@ -161,6 +168,8 @@ def dataset_parts(product, *, radar=None, scene=None, motion=None, attrs=None):
     all_attrs = {"sarjax_product": kind, "method": getattr(product, "method", "") or "",
                  "method_reason": getattr(product, "method_reason", "") or "",
                  "conventions": "arrays (azimuth, range); metres, seconds, radians, hertz"}
+    if kind == "RawData":
+        all_attrs["azimuth_period"] = int(product.azimuth_period)
     if radar is not None:
         all_attrs.update({f"radar_{k}": v for k, v in radar_attributes(radar).items()})
     for key, value in (attrs or {}).items():
@@ -203,7 +212,7 @@ def from_xarray(dataset):
     DataArray on ``("azimuth", "range")`` (taken as raw data)."""
     xr = _xr()
     if isinstance(dataset, xr.DataArray):
-        array, kind, method, reason = dataset, "RawData", "", ""
+        array, kind, method, reason, period = dataset, "RawData", "", "", 0
     else:
         kind = dataset.attrs.get("sarjax_product")
         if kind not in _PRODUCTS:
@@ -213,11 +222,21 @@ def from_xarray(dataset):
             raise ValueError(f"the {kind} file holds no {_VARIABLE[kind]!r} variable")
         array, method = dataset[_VARIABLE[kind]], str(dataset.attrs.get("method", ""))
         reason = str(dataset.attrs.get("method_reason", ""))
+        period = _period(dataset.attrs.get("azimuth_period", 0))
     if array.dims != ("azimuth", "range"):
         raise ValueError(f"dims {array.dims} must be ('azimuth', 'range')")
     cls = _PRODUCTS[kind]
     fields = dict(data=np.asarray(array.values), azimuth=np.asarray(array["azimuth"].values),
                   range=np.asarray(array["range"].values))
     if kind == "RawData":
-        return cls(**fields, method=method, method_reason=reason)
+        return cls(**fields, method=method, method_reason=reason, azimuth_period=period)
     return cls(**fields)
+
+
+def _period(value):
+    """The ``azimuth_period`` attribute of a file as a whole number of pulses ≥ 0."""
+    period = np.asarray(value)
+    if period.ndim or not np.isfinite(period) or period < 0 or period != np.round(period):
+        raise ValueError(f"the file's azimuth_period={value!r} is not a whole number of "
+                         "pulses ≥ 0")
+    return int(period)

@@ -224,8 +224,12 @@ def simulate(
     else:
         with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
             raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
-    # outside the jit: the reason (costs, budgets) would otherwise key its cache
-    return dataclasses.replace(raw, method_reason=reason) if reason else raw
+    # outside the jit: the reason (costs, budgets) and the period would otherwise key
+    # its cache
+    period = simulator.azimuth_period(radar, scene, motion, acquisition)
+    if reason or period:
+        raw = dataclasses.replace(raw, method_reason=reason, azimuth_period=period)
+    return raw
 
 
 def simulation_memory(

@@ -9,7 +9,8 @@ metres):
 * ``horizontal``, ``vertical`` [m], ``pointing`` [rad] on ``azimuth``: the motion.
 * the scene: ``scatterer_*`` on dim ``scatterer`` (point targets) or
   ``scene_reflectivity`` / ``scene_height`` on ``(scene_azimuth, scene_range)`` (grid).
-* attributes: ``sarjax_product`` (``RawData`` / ``Image``), ``method``, every radar
+* attributes: ``sarjax_product`` (``RawData`` / ``Image``), ``method``, raw data's
+  ``azimuth_period`` (pulses; 0: not periodic, :class:`~sarjax.RawData`), every radar
   field as ``radar_<name>`` (SI units), the pattern, the simulation settings as
   ``simulate_<name>`` (``num_pulses``, ``near_range``, ``azimuth_center``, ``dtype`` and
   the simulator options), anything else given as ``attrs`` (e.g. the TOML configuration).

@@ -2,10 +2,13 @@
 
 Exact time-domain raw data (1941 × 830) focused by ω-k and back-projection."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import sarjax as sj
+import sarjax.cli
 from sarjax.constants import SPEED_OF_LIGHT
 from sarjax.metrics import nmse_db
 from sarjax.reference import sinc_irf_expectation
@@ -505,10 +508,10 @@ def test_omega_k_high_speed_preset_squinted():
 
 
 def _circular_error(squint_deg, u, v, weighting, tiles=9):
-    """(circular ω-k, default ω-k) of a periodic simulation (``fourier_2d`` with
-    ``azimuth_padding=0``, 512 pulses: its period) against the default ω-k of the same data
-    tiled ``tiles`` times, its middle tile [dB of NMSE]: the image of the periodic scene
-    focused on linear data, a judge that does not wrap."""
+    """(default ω-k, ``circular_azimuth=False``) of a periodic simulation (``fourier_2d``
+    with ``azimuth_padding=0``, 512 pulses: its period, which the data record) against the
+    linear ω-k of the same data tiled ``tiles`` times, its middle tile [dB of NMSE]: the
+    image of the periodic scene focused on linear data, a judge that does not wrap."""
     squint = np.deg2rad(squint_deg)
     radar = sj.presets.airborne_xband(**_SQUINT_SIZE, squint=squint)
     r0, dr, dx = 5140.0, float(radar.range_spacing), float(radar.azimuth_spacing)
@@ -517,13 +520,17 @@ def _circular_error(squint_deg, u, v, weighting, tiles=9):
     with pytest.warns(sj.ValidityWarning, match="azimuth_window"):  # circular: it wraps
         raw = sj.simulate(radar, target, method="fourier_2d", near_range=near,
                           azimuth_padding=0.0)
+    assert raw.azimuth_period == 512
     middle = slice(tiles // 2 * 512, (tiles // 2 + 1) * 512)
     pulses = np.asarray(raw.azimuth)[0] + (np.arange(tiles * 512) - middle.start) * dx
     tiled = sj.RawData(data=np.tile(np.asarray(raw.data), (tiles, 1)), azimuth=pulses,
                        range=raw.range)
     judge = sj.focus(radar, tiled, azimuth_weighting=weighting)
-    circular = sj.focus(radar, raw, azimuth_weighting=weighting, circular_azimuth=True)
-    padded = sj.focus(radar, raw, azimuth_weighting=weighting)
+    circular = sj.focus(radar, raw, azimuth_weighting=weighting)
+    np.testing.assert_array_equal(  # the default follows the data's period
+        circular.data, sj.focus(radar, raw, azimuth_weighting=weighting,
+                                circular_azimuth=True).data)
+    padded = sj.focus(radar, raw, azimuth_weighting=weighting, circular_azimuth=False)
     np.testing.assert_allclose(np.asarray(judge.azimuth)[middle], circular.azimuth)
     reference = np.asarray(judge.data)[middle]
     return (nmse_db(np.asarray(circular.data), reference),
@@ -535,11 +542,12 @@ def _circular_error(squint_deg, u, v, weighting, tiles=9):
        weighting=st.sampled_from(["uniform", "antenna"]))
 @example(squint=-5.9, u=1.23, v=0.64, weighting="uniform")  # the worst of 8 draws
 def test_circular_azimuth_focuses_periodic_data(squint, u, v, weighting):
-    """``circular_azimuth=True`` is the consistent inverse of a periodic simulation (the
-    seeds' circular setup): within −45 dB of the same data tiled 9 times and focused
-    linearly (measured −54 to −81 dB over 8 draws, ±45°, targets inside and beyond the
-    window in azimuth, both weightings), where the default, padded for recorded data,
-    focuses only the part of each aperture the window holds (−2 to −6 dB from it)."""
+    """Periodic raw data (a simulation with ``azimuth_padding=0``, the seeds' circular
+    setup, records its period) is focused circularly over its period by default, the
+    consistent inverse: within −45 dB of the same data tiled 9 times and focused linearly
+    (measured −54 to −81 dB over 8 draws, ±45°, targets inside and beyond the window in
+    azimuth, both weightings), where ``circular_azimuth=False``, padded for recorded
+    data, focuses only the part of each aperture the window holds (−2 to −6 dB from it)."""
     circular, padded = _circular_error(squint, u, v, weighting)
     assert circular < -45.0, (squint, u, v, weighting, circular)
     assert padded > -10.0, padded  # the option matters on such data
@@ -561,8 +569,42 @@ def test_circular_azimuth_is_an_omega_k_option():
     radar = sj.presets.airborne_xband(num_pulses=64, num_range=64)
     with pytest.raises(ValueError, match="circular_azimuth=True is an omega_k option"):
         sj.focus(radar, raw, method="backprojection", circular_azimuth=True)
-    with pytest.raises(ValueError, match="circular_azimuth='yes' must be True or False"):
+    with pytest.raises(ValueError, match="circular_azimuth='yes' must be True, False or None"):
         sj.focus(radar, raw, circular_azimuth="yes")
+    # periodic data back-projected: each wrapped echo lands where its pulse was
+    periodic = dataclasses.replace(raw, azimuth_period=64)
+    with pytest.warns(sj.FocusWarning, match="azimuth_period = 64 pulses.*'omega_k'"):
+        sj.focus(radar, periodic, method="backprojection")
+    with pytest.raises(ValueError, match="azimuth_period = 64 pulses"):
+        sj.focus(radar, periodic, method="exact_backprojection", strict=True)
+
+
+@pytest.mark.parametrize("method", ["fourier_2d", "moderate_deviation", "chirp_scaling",
+                                    "high_speed"])
+def test_periodic_simulations_record_their_period(method, tmp_path):
+    """A Fourier-domain simulation whose fixed ``azimuth_padding`` lets echoes wrap
+    records the period it synthesised on (``RawData.azimuth_period``: the grid's pulses,
+    256 for ``azimuth_padding=0`` on 256 pulses; more with a padding, still short of the
+    scene's need); with the default padding nothing wraps and the period is 0. It survives
+    a file, so that ``sarjax focus`` focuses the file circularly as ``sj.focus`` does."""
+    radar = sj.presets.airborne_xband(num_pulses=256, num_range=64)
+    near = 5140.0 - 32 * float(radar.range_spacing)
+    scene = sj.PointTargets(azimuth=[25.0, -10.0], range=[5140.0, 5160.0])
+    with pytest.warns(sj.ValidityWarning, match="azimuth_window"):
+        raw = sj.simulate(radar, scene, method=method, near_range=near, azimuth_padding=0.0)
+        padded = sj.simulate(radar, scene, method=method, near_range=near,
+                             azimuth_padding=0.1)
+    assert raw.azimuth_period == 256
+    assert padded.azimuth_period > 256  # its grid: 256 + 2 × 128-pulse steps, 5-smooth
+    assert sj.simulate(radar, scene, method=method, near_range=near).azimuth_period == 0
+    if method != "fourier_2d":
+        return
+    raw_file, image_file = tmp_path / "raw.nc", tmp_path / "image.nc"
+    sj.io.save(raw_file, raw, radar=radar)
+    assert sj.io.load(raw_file).product.azimuth_period == 256
+    assert sarjax.cli.main(["focus", str(raw_file), "-o", str(image_file)]) == 0
+    np.testing.assert_allclose(sj.io.load(image_file).product.data,
+                               sj.focus(radar, raw).data, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("squint", [10.0, -15.0])

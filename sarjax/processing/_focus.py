@@ -121,7 +121,8 @@ def range_compressed(radar, raw: RawData) -> RawData:
     """Matched-filter range compression of raw data (same grid; physics.md §11)."""
     n_fft = range_fft_length(radar, raw.data.shape[-1])
     return RawData(
-        data=range_compress(radar, raw.data, n_fft=n_fft), azimuth=raw.azimuth, range=raw.range
+        data=range_compress(radar, raw.data, n_fft=n_fft), azimuth=raw.azimuth, range=raw.range,
+        azimuth_period=raw.azimuth_period,
     )
 
 
@@ -140,7 +141,7 @@ def focus(
     acquisition_doppler: bool = False,
     memory_limit=None,
     strict: bool = False,
-    circular_azimuth: bool = False,
+    circular_azimuth: bool | None = None,
 ) -> Image:
     """Focus raw data into a complex image (physics.md §11).
 
@@ -181,13 +182,19 @@ def focus(
         strict: raise, rather than warn (:class:`sarjax.FocusWarning`), where the method
             is outside its measured budget (ω-k beyond 70° of squint, or its motion
             compensation past ``moco_aperture_phase``).
-        circular_azimuth: ω-k only: the raw data is periodic over its pulses, as a
-            Fourier-domain simulation with ``azimuth_padding=0`` makes it (the seeds'
-            circular setup): the azimuth correlation is then taken circularly over the
-            pulses, the consistent inverse, so each echo wrapped in from the far end is
-            focused with the rest of its aperture. Default False: the pulses are padded
-            by the full-band aperture (:func:`~sarjax.processing._omega_k.azimuth_aperture`)
-            so that nothing wraps, which on recorded (not periodic) data is right.
+        circular_azimuth: ω-k only: the raw data is periodic along track, as a
+            Fourier-domain simulation whose fixed ``azimuth_padding`` let echoes wrap
+            makes it (``azimuth_padding=0``: the seeds' circular setup): the azimuth
+            correlation is then taken circularly over the period
+            (:attr:`~sarjax.RawData.azimuth_period`, or the pulses' fast transform
+            length where the data do not say), the consistent inverse, so each echo
+            wrapped in from the far end is focused with the rest of its aperture. False:
+            the pulses are padded by the full-band aperture
+            (:func:`~sarjax.processing._omega_k.azimuth_aperture`) so that nothing wraps,
+            which on recorded (not periodic) data is right. Default None: circular where
+            ``raw.azimuth_period`` says the data are periodic. Back-projection of
+            periodic data warns (:class:`sarjax.FocusWarning`): it places each wrapped
+            echo where its pulse was.
 
     Returns:
         :class:`~sarjax.Image` on (x, r); a target at (x, r) focuses there with phase
@@ -204,14 +211,25 @@ def focus(
     if azimuth_weighting not in ("antenna", "uniform"):
         raise ValueError(f"azimuth_weighting={azimuth_weighting!r}; choose 'antenna' or 'uniform'")
     azimuth_weighting = str(azimuth_weighting)  # a NumPy string too (a static argument)
-    if not isinstance(circular_azimuth, (bool, np.bool_)):
-        raise ValueError(f"circular_azimuth={circular_azimuth!r} must be True or False")
+    if circular_azimuth is not None and not isinstance(circular_azimuth, (bool, np.bool_)):
+        raise ValueError(f"circular_azimuth={circular_azimuth!r} must be True, False or None")
     if circular_azimuth and method != "omega_k":
         raise ValueError(f"circular_azimuth=True is an omega_k option; method={method!r} "
                          "back-projects each pulse where it was")
     data = jnp.asarray(raw.data)
     if data.ndim != 2:
         raise ValueError(f"raw.data has shape {data.shape}; expected (azimuth, range)")
+    period = int(getattr(raw, "azimuth_period", 0))
+    if circular_azimuth is None:
+        circular_azimuth = method == "omega_k" and period > 0
+    if period and method != "omega_k":
+        message = (f"focus(method={method!r}): raw.azimuth_period = {period} pulses: the "
+                   "data are periodic along track (echoes wrapped in from the window's "
+                   "other end) and back-projection places each where its pulse was; use "
+                   "method='omega_k', which correlates circularly over the period")
+        if strict:
+            raise ValueError(message)
+        warnings.warn(message, _validate.FocusWarning, stacklevel=2)
     if method == "omega_k":  # its budgets first: beyond them its sizes can be large
         order = None if motion.is_ideal else (motion_compensation or "none")
         _check_omega_k(radar, motion, order, data.shape[0], strict)
@@ -222,7 +240,8 @@ def focus(
         lags = recorded_lags(radar, window_range)
         lag_range = _lag_axis(radar, window_range, lags)
         n_fft = range_fft_length(radar, data.shape[1])
-        omega_k_sizes = ((0 if circular_azimuth else azimuth_aperture(radar, lag_range),
+        omega_k_sizes = ((max(period - data.shape[0], 0) if circular_azimuth
+                          else azimuth_aperture(radar, lag_range),
                           kappa_oversampling(radar),
                           range_spread(radar, lag_range))
                          if method == "omega_k" else (0, 1, 0))

@@ -110,6 +110,11 @@ class AbstractSimulator(eqx.Module):
         """The budgets of the approximations this method makes (none for exact ones)."""
         return (), 0.0
 
+    def azimuth_period(self, radar, scene, motion, acquisition) -> int:
+        """Pulses over which this method's data repeat along track
+        (:attr:`sarjax.RawData.azimuth_period`); 0 (default): they do not."""
+        return 0
+
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         """Budgets of the grid the method synthesises on (default: none; the
         Fourier-domain methods: its azimuth aliases, wrap and extent, and the track

@@ -542,6 +542,13 @@ class WorkGrid(NamedTuple):
     wrapped: float
 
 
+def data_period(azimuth_padding, grid) -> int:
+    """Pulses over which a Fourier-domain simulation's data repeat: the grid's ``n_x``
+    where a fixed ``azimuth_padding`` let echoes wrap (``grid.wrapped``), else 0 (every
+    echo held: the data are those of a recorded window)."""
+    return int(grid.n_x) if azimuth_padding is not None and grid.wrapped > 0 else 0
+
+
 def _scene_cells(scene, window=None):
     """(x, r) broadcastable NumPy arrays of the scene's scatterers. Traced azimuths (a
     gradient with respect to them) are taken at the window's ends ``window = (w₀, w₁)``,

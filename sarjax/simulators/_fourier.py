@@ -203,6 +203,10 @@ class AbstractFourierSimulator(AbstractSimulator):
                            support.bands, jnp.asarray(grid.included, dtype=float),
                            self.track.coupling_order(self, radar, span))
 
+    def azimuth_period(self, radar, scene, motion, acquisition) -> int:
+        return extent.data_period(self.azimuth_padding,
+                                  self.grid(radar, scene, motion, acquisition)[1])
+
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         support, grid = self.grid(radar, scene, motion, acquisition)
         return azimuth_budgets(support, grid) + rounding_budgets(support, dtype)

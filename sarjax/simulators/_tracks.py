@@ -186,6 +186,10 @@ class AbstractStraightTrackSimulator(AbstractSimulator):
         return extent.band_grid(radar, scene, motion, acquisition, self.azimuth_padding,
                                 support, **self.grid_rules)
 
+    def azimuth_period(self, radar, scene, motion, acquisition) -> int:
+        return extent.data_period(self.azimuth_padding,
+                                  self.grid(radar, scene, motion, acquisition)[1])
+
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         # computed in complex128 whatever the output's dtype: no rounding budget
         return azimuth_budgets(*self.grid(radar, scene, motion, acquisition))
