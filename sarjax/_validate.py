@@ -321,8 +321,11 @@ def _outside_validity(simulator, broken, which) -> str:
     instead += [c.names[0] for c in _registry.SIMULATORS if c.exact]
     rounding = " or dtype=jnp.complex128" if any(
         b.name == "complex64_rounding" for b in broken) else ""
+    wrapped = (", or the default azimuth_padding=None (as it is, the data repeat along "
+               "track, RawData.azimuth_period, and sj.focus correlates circularly over that "
+               "period)") if any(b.name == "azimuth_window" for b in broken) else ""
     return (f"method={name!r} is outside its validity{which}: {text}; use method="
-            + " or ".join(f"{m!r}" for m in ["auto"] + instead) + rounding)
+            + " or ".join(f"{m!r}" for m in ["auto"] + instead) + rounding + wrapped)
 
 
 def check_focus(radar, raw, motion):
