@@ -85,7 +85,8 @@ class RawData(_Gridded):
             simulation with a fixed ``azimuth_padding`` too small for the scene (0: the
             seeds' circular setup) synthesises on a circular grid of that many pulses
             and its echoes wrap (the ``azimuth_window`` budget); :func:`sarjax.focus`
-            then correlates circularly over that period, the consistent inverse.
+            then correlates circularly over that period (the consistent inverse where
+            the data hold the whole period, as with ``azimuth_padding=0``).
     """
 
     method_reason: str = eqx.field(static=True, default="")

@@ -187,8 +187,12 @@ def focus(
             makes it (``azimuth_padding=0``: the seeds' circular setup): the azimuth
             correlation is then taken circularly over the period
             (:attr:`~sarjax.RawData.azimuth_period`, or the pulses' fast transform
-            length where the data do not say), the consistent inverse, so each echo
-            wrapped in from the far end is focused with the rest of its aperture. False:
+            length where the data do not say): where the data hold the whole period
+            (``azimuth_padding=0``) the consistent inverse, each echo wrapped in from the
+            far end focused with the rest of its aperture. A longer period's pulses beyond
+            the window are not in the data and no focusing recovers them (512 pulses,
+            period 768 or 1024: circular and padded both −3 dB from the image of the
+            whole period; circular 0–0.5 dB nearer). False:
             the pulses are padded by the full-band aperture
             (:func:`~sarjax.processing._omega_k.azimuth_aperture`) so that nothing wraps,
             which on recorded (not periodic) data is right. Default None: circular where
