@@ -532,6 +532,8 @@ class WorkGrid(NamedTuple):
             needs (the window and one echo support): how far the scene reaches beyond.
         wrapped: fraction of the included scatterers whose support the azimuth grid does
             not hold (a fixed ``azimuth_padding`` smaller than the scene needs).
+        wrapped_energy: the echo energy that grid wraps into the window, over the energy
+            the window records (:func:`_wrapped_energy`; 0 where nothing wraps).
     """
 
     lead: int
@@ -540,6 +542,7 @@ class WorkGrid(NamedTuple):
     included: np.ndarray
     extent: float
     wrapped: float
+    wrapped_energy: float = 0.0
 
 
 def data_period(azimuth_padding, grid) -> int:
@@ -667,6 +670,12 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     if moving is not None:
         holds &= ~(too_far & moving[2])
     wrapped = float(np.mean(~holds[kept])) if kept.any() else 0.0
+    wrapped_energy = 0.0
+    if azimuth_padding is not None and kept.any() and wrapped > 0:
+        unheld_moving = (np.zeros(x.shape, bool) if moving is None
+                         else ~holds & moving[2].astype(bool))
+        wrapped_energy = _wrapped_energy(radar, scene, x, r, look, (w0, w1), period,
+                                         kept, unheld_moving)
     # range: the scene's need, at least the fixed rule
     span = n_x * dx
     walk = span * abs(math.sin(squint))
@@ -681,4 +690,45 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     # the scene's need over what one scatterer in the window needs
     own = n * dx + r_max * (math.tan(look[1]) - math.tan(look[0]))
     return WorkGrid(pad, n_x, n_r, included, float(need) / own if azimuth_padding is None
-                    else n_x * dx / own, wrapped)
+                    else n_x * dx / own, wrapped, wrapped_energy)
+
+
+WRAP_IMAGES = 3  # the grid's periodic images whose wrapped echo is counted one by one
+
+
+def _wrapped_energy(radar, scene, x, r, look, window, period, kept, unheld_moving):
+    """The echo energy a circular azimuth grid of ``period`` [m] wraps into the window
+    ``(w₀, w₁)``, over the energy the window records (scatterers weighted by ``|γ|²``):
+    the raw NMSE of a fixed ``azimuth_padding`` too small for the scene.
+
+    A still scatterer's synthesised echo spans the look angles of the bands,
+    ``x' − x ∈ [−r tan φ_hi, −r tan φ_lo]``; the part at ``x' ∈ [w₀, w₁] + kP``, k ≠ 0,
+    lands in the window, with the energy ``|F(u(b)) − F(u(a))|`` of its pattern
+    arguments (:func:`pattern_energy_table`), counted for ``|k| ≤ WRAP_IMAGES``, and
+    beyond them the echo's whole remaining energy (an upper bound). The cut's ringing
+    beyond the bands is not counted (measured ≤ −42 dB where nothing else wraps); a
+    moving scatterer whose echo the grid does not hold counts as wholly wrapped (its
+    recorded energy). Traced azimuths or reflectivities: 1."""
+    if is_traced((scene.azimuth, scene.reflectivity)):
+        return 1.0  # not computable: as if the whole echo wrapped (the grid did not hold it)
+    w0, w1 = window
+    u_grid, cumulative = pattern_energy_table(radar.pattern)
+
+    def energy(a, b):  # of the echo over the pulses [a, b] (a ≤ b)
+        fa, fb = (np.interp(np.nan_to_num(_pattern_u(radar, v - x, r)), u_grid, cumulative)
+                  for v in (a, b))
+        return np.abs(fb - fa)
+
+    lo, hi = x - r * math.tan(look[1]), x - r * math.tan(look[0])
+    recorded = energy(np.clip(w0, lo, hi), np.clip(w1, lo, hi))
+    wrapped = np.zeros_like(recorded)
+    for k in range(1, WRAP_IMAGES + 1):
+        for shift in (-k * period, k * period):
+            a, b = np.maximum(lo, w0 + shift), np.minimum(hi, w1 + shift)
+            wrapped += np.where(b > a, energy(np.minimum(a, b), b), 0.0)
+    reach = WRAP_IMAGES * period  # beyond: all of it, an upper bound
+    wrapped += energy(lo, np.clip(w0 - reach, lo, hi)) + energy(np.clip(w1 + reach, lo, hi), hi)
+    wrapped = np.where(unheld_moving, np.maximum(wrapped, recorded), wrapped)
+    weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), x.shape)) ** 2 * kept
+    total = float(np.sum(weight * recorded))
+    return float(np.sum(weight * wrapped)) / total if total > 0 else 0.0
