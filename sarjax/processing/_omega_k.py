@@ -178,7 +178,7 @@ def matched_filter_weight(k0, squint, kz):
     on a 512 × 128 window, targets 0.9 half-windows from its centre in range were 1.3–1.8 %
     off and −35 to −37 dB over the image at 10° and 45° (with it 0.06–0.2 %, −45 to −58 dB).
     """
-    centroid = jnp.sqrt(k0**2 - (k0 * jnp.sin(squint)) ** 2)
+    centroid = k0 * jnp.cos(squint)  # k_z at the Doppler centroid, η = 0
     return jnp.where(kz > 0, jnp.sqrt(centroid / jnp.where(kz > 0, kz, 1.0)), 0.0)
 
 

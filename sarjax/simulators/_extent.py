@@ -545,11 +545,15 @@ class WorkGrid(NamedTuple):
     wrapped_energy: float = 0.0
 
 
-def data_period(azimuth_padding, grid) -> int:
+def data_period(simulator, radar, scene, motion, acquisition) -> int:
     """Pulses over which a Fourier-domain simulation's data repeat: the grid's ``n_x``
     where a fixed ``azimuth_padding`` let echoes wrap (``grid.wrapped``), else 0 (every
-    echo held: the data are those of a recorded window)."""
-    return int(grid.n_x) if azimuth_padding is not None and grid.wrapped > 0 else 0
+    echo held: the data are those of a recorded window; the default padding always
+    holds them, so its grid is not asked for)."""
+    if simulator.azimuth_padding is None:
+        return 0
+    grid = simulator.grid(radar, scene, motion, acquisition)[1]
+    return int(grid.n_x) if grid.wrapped > 0 else 0
 
 
 def _scene_cells(scene, window=None):

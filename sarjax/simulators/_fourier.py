@@ -204,8 +204,7 @@ class AbstractFourierSimulator(AbstractSimulator):
                            self.track.coupling_order(self, radar, span))
 
     def azimuth_period(self, radar, scene, motion, acquisition) -> int:
-        return extent.data_period(self.azimuth_padding,
-                                  self.grid(radar, scene, motion, acquisition)[1])
+        return extent.data_period(self, radar, scene, motion, acquisition)
 
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         support, grid = self.grid(radar, scene, motion, acquisition)

@@ -187,8 +187,7 @@ class AbstractStraightTrackSimulator(AbstractSimulator):
                                 support, **self.grid_rules)
 
     def azimuth_period(self, radar, scene, motion, acquisition) -> int:
-        return extent.data_period(self.azimuth_padding,
-                                  self.grid(radar, scene, motion, acquisition)[1])
+        return extent.data_period(self, radar, scene, motion, acquisition)
 
     def window_budgets(self, radar, scene, motion, acquisition, dtype=jnp.complex128):
         # computed in complex128 whatever the output's dtype: no rounding budget
