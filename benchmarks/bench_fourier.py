@@ -18,7 +18,9 @@ complex128 and complex64. Per row:
 * steady: min wall time over repeats of ``simulate(...).data.block_until_ready()``,
   with the process CPU time of that repeat;
 * checks: the steady time of the call's argument checks, validity budgets and plan
-  (``sarjax._simulate._prepare``), part of steady;
+  (``sarjax._simulate._prepare``) run alone, one after the other; in ``simulate`` the
+  validity budgets run in a worker thread while the simulation runs, so part of them
+  overlaps the steady time;
 * FFT-equivalents: steady / (one complex128 ``jax.jit(jnp.fft.fft2)`` of the **fixed**
   2560 × 675 grid, timed in the same run, whatever grid a simulator pads to), by wall
   and by CPU; the padded grid's own FFT is reported beside it;
@@ -391,7 +393,9 @@ below).
 - steady: min wall time over {repeats} calls of `simulate(...).data.block_until_ready()`;
   CPU/wall is the process CPU time of that call over its wall time.
 - checks: min over 5 calls of the call's checks, validity budgets and plan alone
-  (`sarjax._simulate._prepare`); included in steady.
+  (`sarjax._simulate._prepare`, one after the other); in `simulate` the validity
+  budgets run in a worker thread while the simulation runs, so they overlap the steady
+  time instead of adding to it.
 {acc_text}{END}
 """
 

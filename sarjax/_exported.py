@@ -44,6 +44,7 @@ import os
 import pickle
 import platform
 import sys
+import threading
 import types
 from pathlib import Path
 
@@ -71,6 +72,7 @@ _DAMAGED = (OSError, RuntimeError, ValueError, TypeError, KeyError, IndexError, 
 
 _folder: Path | None = None
 _loaded: collections.OrderedDict = collections.OrderedDict()
+_loaded_lock = threading.Lock()
 
 
 def set_folder(folder) -> Path | None:
@@ -147,10 +149,11 @@ def _call(fn, *args):
 def _remember(key, entry, outputs):
     """Keep ``entry`` loaded (the least recently used beyond a few dropped); the call's
     result from the program's ``outputs``."""
-    _loaded[key] = entry
-    _loaded.move_to_end(key)
-    while len(_loaded) > _MEMORY_ENTRIES:
-        _loaded.popitem(last=False)
+    with _loaded_lock:  # calls from several threads (a simulation and its checks)
+        _loaded[key] = entry
+        _loaded.move_to_end(key)
+        while len(_loaded) > _MEMORY_ENTRIES:
+            _loaded.popitem(last=False)
     return jax.tree_util.tree_map(lambda slot: outputs[slot.index], entry[1],
                                   is_leaf=lambda x: isinstance(x, _Slot))
 
@@ -168,7 +171,20 @@ def _first_run(compiled, leaves, fn, key):
 
 def _compile(fn, static, leaves, in_tree):
     """Trace, lower and compile ``fn`` on the flat array arguments (XLA's persistent
-    cache applies); the executable and the output template."""
+    cache applies); the executable and the output template. One thread at a time: the
+    test for an executable from XLA's cache counts the cache's hits, and compiling past
+    the cache turns it off for the process meanwhile (a call's checks compile their own
+    programs in a worker thread beside the simulation's: interleaved, one thread's
+    compile could take the other's hit for its own, or find the cache turned back on
+    half-way, and keep a program that misses functions)."""
+    with _compile_lock:
+        return _compile_alone(fn, static, leaves, in_tree)
+
+
+_compile_lock = threading.RLock()
+
+
+def _compile_alone(fn, static, leaves, in_tree):
     body = getattr(fn, "__wrapped__", fn)  # the Python function under eqx.filter_jit
     template = []
 

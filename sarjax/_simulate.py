@@ -4,8 +4,10 @@ run the kernel under one ``jit`` and wrap the result in :class:`~sarjax.RawData`
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import math
+import threading
 
 import equinox as eqx
 import jax
@@ -94,8 +96,14 @@ def _choose_batched_method(radar, scene, motion, batch_size, **kwargs):
 
 
 def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
-             azimuth_center, dtype, devices, memory_limit, options):
-    """Validate, resolve the method and plan the call (everything but running it)."""
+             azimuth_center, dtype, devices, memory_limit, options, concurrent_checks=False):
+    """Validate, resolve the method and plan the call (everything but running it).
+
+    ``concurrent_checks``: the model's checks (:func:`sarjax._validate.model_findings`: the
+    budgets, the swath) are returned as a :class:`concurrent.futures.Future` of their
+    findings, started in a worker thread, where the call is not strict and nothing is
+    traced (else None, and they ran here): :func:`simulate` runs the simulation meanwhile.
+    """
     strict = _validate.check_arguments(radar, options)
     dtype = _validate.check_dtype(dtype)
     motion = Motion() if motion is None else motion
@@ -131,14 +139,34 @@ def _prepare(radar, scene, motion, *, method, num_pulses, num_range, near_range,
     name = method if isinstance(method, str) else type(simulator).__name__
     _validate.check_supported(simulator, radar, scene, motion)
     plan = simulator.prepare(radar, scene, acquisition, motion)
-    _validate.check_model(simulator, radar, scene, motion, acquisition, strict, dtype)
+    checks = None
+    if concurrent_checks and not strict and not _validate.is_traced(radar, scene, motion):
+        checks = _checks_pool().submit(_validate.model_findings, simulator, radar, scene,
+                                       motion, acquisition, strict, dtype)
+    else:
+        _validate.check_model(simulator, radar, scene, motion, acquisition, strict, dtype)
     motion_bytes = sum(math.prod(np.shape(v)) * 8 for v in jax.tree_util.tree_leaves(motion))
     memory = memory_plan(simulator, plan, radar, scene, motion_bytes, acquisition, dtype,
                          batch_size, devices, memory_limit, name)
     call = CallPlan(batch_size=batch_size, batch_chunk=memory.batch_chunk,
                     devices=memory.devices, batch_shards=memory.batch_shards,
                     pulse_shards=memory.pulse_shards)
-    return memory.simulator, plan, motion, acquisition, dtype, name, call, reason, memory
+    return (memory.simulator, plan, motion, acquisition, dtype, name, call, reason, memory,
+            checks)
+
+
+_POOL = None
+_POOL_LOCK = threading.Lock()
+
+
+def _checks_pool():
+    """The threads the model's checks run in beside the simulations (created once)."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = concurrent.futures.ThreadPoolExecutor(
+                max_workers=2, thread_name_prefix="sarjax-checks")
+        return _POOL
 
 
 def simulate(
@@ -213,17 +241,28 @@ def simulate(
             the estimated peak memory exceeds ``memory_limit`` even at the smallest chunks;
             the message states the estimate and the limit.
     """
-    simulator, plan, motion, acquisition, dtype, name, call, reason, _ = _prepare(
+    # the model's checks (the validity budgets) run in a worker thread while the
+    # simulation runs (strict: before it, which then does not run); their warnings are
+    # given here once both are done
+    simulator, plan, motion, acquisition, dtype, name, call, reason, _, checks = _prepare(
         radar, scene, motion, method=method, num_pulses=num_pulses, num_range=num_range,
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
-        memory_limit=memory_limit, options=options,
+        memory_limit=memory_limit, options=options, concurrent_checks=True,
     )
     run = _exported.persistent(_run)  # loaded from disk when the cache is on
-    if call.devices:
-        raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
-    else:
-        with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
+    try:
+        if call.devices:
             raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
+        else:
+            with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
+                raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name,
+                          call)
+    except BaseException:
+        if checks is not None:  # the run's error is the call's; the checks end first
+            concurrent.futures.wait([checks])
+        raise
+    if checks is not None:
+        _validate.emit(checks.result(), stacklevel=2)
     # outside the jit: the reason (costs, budgets) and the period would otherwise key
     # its cache
     period = simulator.azimuth_period(radar, scene, motion, acquisition)
@@ -254,4 +293,4 @@ def simulation_memory(
         radar, scene, motion, method=method, num_pulses=num_pulses, num_range=num_range,
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options,
-    )[-1]
+    )[-2]

@@ -250,7 +250,29 @@ def _realizations(motion):
 
 def check_model(simulator, radar, scene, motion, acquisition, strict=False,
                 dtype=jax.numpy.complex128):
-    """Checks of a whole :func:`sarjax.simulate` call (after the method is resolved).
+    """Checks of a whole :func:`sarjax.simulate` call (after the method is resolved):
+    :func:`model_findings`, each warned about (strict: the first raised as a ValueError).
+    """
+    emit(model_findings(simulator, radar, scene, motion, acquisition, strict, dtype),
+         stacklevel=4)
+
+
+def emit(findings, stacklevel=2):
+    """Warn about each (message, warning class) of :func:`model_findings`, ``stacklevel``
+    counted from the caller of this function."""
+    for message, category in findings:
+        warnings.warn(message, category, stacklevel=stacklevel + 1)
+
+
+def is_traced(*trees) -> bool:
+    """Whether any leaf of ``trees`` is a tracer (inside a user's transformation)."""
+    return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(trees))
+
+
+def model_findings(simulator, radar, scene, motion, acquisition, strict=False,
+                   dtype=jax.numpy.complex128):
+    """What is wrong with a whole :func:`sarjax.simulate` call (after the method is
+    resolved), as a list of (message, warning class), warned about by :func:`emit`.
 
     * **Swath**: when no scatterer's echo can reach the range window
       (:func:`echoes_outside_window`) the data would be identically zero: a
@@ -263,8 +285,10 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False,
       threshold, and the methods to use instead; strict: a ValueError. The exact models
       sample the echo at the pulses, aliasing included: only their range window counts.
 
-    Checks of traced values are skipped.
+    Checks of traced values are skipped. Only NumPy and jax programs of its own: it may
+    run in another thread while the simulation runs (:func:`sarjax.simulate`).
     """
+    findings = []
     outside = echoes_outside_window(radar, scene, motion, acquisition)
     if outside is not None and outside.size and outside.any():
         r = np.broadcast_to(scene_positions(scene)[1], outside.shape)[outside]
@@ -276,16 +300,14 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False,
                        f"{np.unique(r)[:5]} m …): the raw data is identically zero")
             if strict:
                 raise ValueError(message)
-            warnings.warn(message, SwathWarning, stacklevel=4)
+            findings.append((message, SwathWarning))
         elif strict:
             raise ValueError(
                 f"strict=True: {int(outside.sum())} of {outside.size} scatterers' echoes "
                 f"miss the {window} (scene.range = {np.unique(r)[:5]} m …)"
             )
-    traced = any(isinstance(v, jax.core.Tracer)
-                 for v in jax.tree_util.tree_leaves((radar, scene, motion)))
-    if traced:  # inside a user's transformation (a gradient): judged on concrete calls
-        return
+    if is_traced(radar, scene, motion):  # inside a user's transformation (a gradient):
+        return findings  # judged on concrete calls
     realizations = _realizations(motion)
     for index, realization in enumerate(realizations):
         # one realization: the swath check's scatterers are this budget's too
@@ -297,8 +319,9 @@ def check_model(simulator, radar, scene, motion, acquisition, strict=False,
             message = _outside_validity(simulator, broken, which)
             if strict:
                 raise ValueError(f"strict=True: {message}, or strict=False")
-            warnings.warn(message, ValidityWarning, stacklevel=4)
-            return
+            findings.append((message, ValidityWarning))
+            break
+    return findings
 
 
 def _outside_validity(simulator, broken, which) -> str:
