@@ -52,11 +52,26 @@ import sarjax  # noqa: E402,F401  (enables x64 as the library does)
 
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
-    """Each test module compiles its own shapes; the compiled programs of a finished
-    module are released (jax keeps every one otherwise: one process of the suite grew to
-    6.9 GB)."""
+    """Each test module compiles its own shapes; the compiled programs are released after
+    a module that leaves the process above ``_RESIDENT_LIMIT`` (jax keeps every one
+    otherwise: one process of the suite grew to 6.9 GB). Below it they are kept for the
+    next modules, which compile many of the same programs (the budgets' programs, the
+    small eager ones, the simulations of the common test grids)."""
     yield
-    _release()
+    if _resident() > _RESIDENT_LIMIT:
+        _release()
+
+
+_RESIDENT_LIMIT = 3 << 30  # bytes: a worker's share of the 24 GB machine, with room
+
+
+def _resident() -> int:
+    """The process's resident memory [bytes] (0 where /proc is not there)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 @pytest.fixture(autouse=True)
