@@ -98,5 +98,5 @@ def test_simulations_from_several_threads_equal_one_at_a_time():
         for t in threads:
             t.join()
     assert not errors, errors
-    for a, b in zip(alone, results):
+    for a, b in zip(alone, results, strict=True):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
