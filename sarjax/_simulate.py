@@ -7,6 +7,7 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import math
+import os
 import threading
 
 import equinox as eqx
@@ -167,6 +168,17 @@ def _checks_pool():
             _POOL = concurrent.futures.ThreadPoolExecutor(
                 max_workers=2, thread_name_prefix="sarjax-checks")
         return _POOL
+
+
+def _forget_checks_pool():
+    """In a forked child: the parent's threads are not there (work given to its pool
+    would never run), so a new pool is made on the next call."""
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_checks_pool)
 
 
 def simulate(

@@ -100,3 +100,19 @@ def test_simulations_from_several_threads_equal_one_at_a_time():
     assert not errors, errors
     for a, b in zip(alone, results, strict=True):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
+
+
+def test_a_forked_child_makes_its_own_pool():
+    """After a fork the parent's worker threads are not in the child: the child forgets
+    the pool (``os.register_at_fork``) and makes a new one that runs its checks."""
+    kept, fresh = _simulate._checks_pool(), None
+    try:
+        _simulate._forget_checks_pool()  # what the child runs after a fork
+        fresh = _simulate._checks_pool()
+        assert fresh is not kept
+        assert fresh.submit(lambda: 42).result(timeout=10) == 42
+    finally:
+        if fresh is not None:
+            fresh.shutdown(wait=True)
+        with _simulate._POOL_LOCK:
+            _simulate._POOL = kept
