@@ -139,21 +139,30 @@ def _call(fn, *args):
                 return _remember(key, entry, outputs)
             entry = None
     if entry is None:
-        entry = _compile(fn, static, leaves, in_tree)
-        if entry[0] is None:  # cannot be kept
-            return fn(*args)
-        _store(fn, key, entry)
+        with _compile_lock:  # a call from another thread may have compiled it meanwhile
+            entry = _loaded.get(key)
+            if entry is None:
+                entry = _compile(fn, static, leaves, in_tree)
+                if entry[0] is None:  # cannot be kept
+                    return fn(*args)
+                _store(fn, key, entry)
+                _keep(key, entry)
     return _remember(key, entry, entry[0](*leaves))
 
 
-def _remember(key, entry, outputs):
-    """Keep ``entry`` loaded (the least recently used beyond a few dropped); the call's
-    result from the program's ``outputs``."""
+def _keep(key, entry):
+    """Keep ``entry`` loaded (the least recently used beyond a few dropped)."""
     with _loaded_lock:  # calls from several threads (a simulation and its checks)
         _loaded[key] = entry
         _loaded.move_to_end(key)
         while len(_loaded) > _MEMORY_ENTRIES:
             _loaded.popitem(last=False)
+
+
+def _remember(key, entry, outputs):
+    """Keep ``entry`` loaded (:func:`_keep`); the call's result from the program's
+    ``outputs``."""
+    _keep(key, entry)
     return jax.tree_util.tree_map(lambda slot: outputs[slot.index], entry[1],
                                   is_leaf=lambda x: isinstance(x, _Slot))
 

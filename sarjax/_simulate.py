@@ -170,6 +170,72 @@ def _checks_pool():
         return _POOL
 
 
+# An exact model's call on one CPU device runs as this many blocks of pulses, each from
+# a host thread of its own, where it is estimated to take at least HOST_SPLIT_SECONDS:
+# XLA runs the NUFFT model's scatter-add and much of the time-domain kernel on one core,
+# and two programs called from two threads run at once (benchmarks/README.md).
+HOST_BLOCKS = 2
+HOST_SPLIT_SECONDS = 0.25
+
+
+def _usable_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def _host_blocks(simulator, plan, radar, scene, motion, acquisition, dtype, call,
+                 device) -> int:
+    """The blocks of pulses a call runs as, one per host thread (1: the whole call at
+    once): :data:`HOST_BLOCKS` for a pulse-local (exact) model's unbatched call on one
+    CPU device of a machine with as many cores, whose cost model estimates at least
+    :data:`HOST_SPLIT_SECONDS`, with traced inputs nowhere."""
+    kind = type(simulator)
+    if (not kind.pulse_local or call.batch_size is not None or device.platform != "cpu"
+            or acquisition.num_pulses < 2 * HOST_BLOCKS
+            or _usable_cores() < HOST_BLOCKS
+            or _validate.is_traced(radar, scene, motion, acquisition)):
+        return 1
+    steady = simulator.cost(plan, radar, scene, acquisition, dtype).steady
+    return HOST_BLOCKS if steady >= HOST_SPLIT_SECONDS else 1
+
+
+def _run_in_blocks(run, blocks, device, simulator, plan, radar, scene, motion, acquisition,
+                   dtype, name, call):
+    """``run`` on ``blocks`` equal blocks of the pulses at once, one host thread each,
+    joined into one :class:`~sarjax.RawData`: each block an acquisition of its own
+    (its pulses' azimuth centre, the motion's slice), all of one shape (the last block
+    starts early where the pulses do not divide, its repeated pulses dropped), so one
+    compiled program serves them. Pulse-local models only: equal to the whole call."""
+    n = acquisition.num_pulses
+    size = -(-n // blocks)
+    starts = [min(b * size, n - size) for b in range(blocks)]
+    dx = radar.azimuth_spacing
+    parts = []
+    for start in starts:
+        centre = acquisition.azimuth_center + (start + (size - 1) / 2 - (n - 1) / 2) * dx
+        part = dataclasses.replace(acquisition, num_pulses=size, azimuth_center=centre)
+        moved = jax.tree_util.tree_map(lambda v, s=start: v[s:s + size], motion)
+        parts.append((part, moved))
+
+    def one(args):
+        part, moved = args
+        with jax.default_device(device):
+            return run(simulator, plan, radar, scene, moved, part, dtype, name, call)
+
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=blocks,
+                                                 thread_name_prefix="sarjax-pulses")
+    with pool:
+        raws = list(pool.map(one, parts))
+    keep = [slice(max(0, (starts[b - 1] + size) - start) if b else 0, size)
+            for b, start in enumerate(starts)]
+    return dataclasses.replace(
+        raws[0],
+        data=jnp.concatenate([r.data[k] for r, k in zip(raws, keep, strict=True)]),
+        azimuth=jnp.concatenate([r.azimuth[k] for r, k in zip(raws, keep, strict=True)]))
+
+
 def _forget_checks_pool():
     """In a forked child: the parent's threads are not there (work given to its pool
     would never run), so a new pool is made on the next call."""
@@ -266,9 +332,16 @@ def simulate(
         if call.devices:
             raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name, call)
         else:
-            with jax.default_device(_sharding.resolve_devices(devices)[0]):  # the first named
-                raw = run(simulator, plan, radar, scene, motion, acquisition, dtype, name,
-                          call)
+            device = _sharding.resolve_devices(devices)[0]  # the first named
+            blocks = _host_blocks(simulator, plan, radar, scene, motion, acquisition,
+                                  dtype, call, device)
+            if blocks > 1:
+                raw = _run_in_blocks(run, blocks, device, simulator, plan, radar, scene,
+                                     motion, acquisition, dtype, name, call)
+            else:
+                with jax.default_device(device):
+                    raw = run(simulator, plan, radar, scene, motion, acquisition, dtype,
+                              name, call)
     except BaseException:
         if checks is not None:  # the run's error is the call's; the checks end first
             concurrent.futures.wait([checks])

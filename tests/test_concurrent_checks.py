@@ -1,13 +1,16 @@
-"""``sj.simulate`` runs the model's checks (the validity budgets, the swath) in a worker
-thread while the simulation runs, and gives their warnings once both are done: the same
-warnings as the checks run first, pointing at the caller; ``strict=True`` still refuses
-before anything runs; an error of the run is the call's error."""
+"""What ``sj.simulate`` runs in host threads: the model's checks (the validity budgets,
+the swath) in a worker thread while the simulation runs, their warnings given once both
+are done (the same warnings as the checks run first, pointing at the caller;
+``strict=True`` still refuses before anything runs; an error of the run is the call's
+error); and an exact model's large call on a CPU as blocks of pulses, one thread each,
+equal to the whole call."""
 
 from __future__ import annotations
 
 import threading
 import warnings
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -15,6 +18,7 @@ import pytest
 import sarjax as sj
 from sarjax import _simulate, _validate
 from sarjax._data import Acquisition
+from sarjax.simulators import _registry
 
 RADAR = sj.presets.airborne_xband()
 N, M = 256, 192
@@ -116,3 +120,61 @@ def test_a_forked_child_makes_its_own_pool():
             fresh.shutdown(wait=True)
         with _simulate._POOL_LOCK:
             _simulate._POOL = kept
+
+
+@pytest.mark.parametrize("method", ["time_domain", "time_domain_nufft"])
+@pytest.mark.parametrize("num_pulses", [64, 65])
+def test_pulse_blocks_from_host_threads_equal_the_whole_call(monkeypatch, method, num_pulses):
+    """An exact model's call split into blocks of pulses, one host thread each (forced
+    here: its cost model puts this call under the split's threshold), gives the whole
+    call's data and pulse positions exactly, for a pulse count the blocks divide and one
+    they do not (the last block starts early, its repeated pulse dropped); off the track
+    centre, with motion and two targets."""
+    x = (np.arange(num_pulses) - num_pulses // 2) * float(RADAR.azimuth_spacing)
+    motion = sj.Motion(horizontal=0.03 * np.sin(x / 3.0), vertical=0.02 * np.cos(x / 5.0),
+                       pointing=1e-3 * np.sin(x / 2.0))
+    kw = dict(num_pulses=num_pulses, num_range=M, near_range=NEAR, azimuth_center=2.5,
+              method=method)
+    monkeypatch.setattr(_simulate, "HOST_BLOCKS", 1)
+    whole = sj.simulate(RADAR, SCENE, motion, **kw)
+    monkeypatch.setattr(_simulate, "HOST_BLOCKS", 2)
+    monkeypatch.setattr(_simulate, "HOST_SPLIT_SECONDS", 0.0)
+    monkeypatch.setattr(_simulate, "_usable_cores", lambda: 2)
+    calls = []
+    run = _simulate._run
+
+    def counted(*args, **kwargs):
+        calls.append(args[5].num_pulses)
+        return run(*args, **kwargs)
+
+    monkeypatch.setattr(_simulate, "_run", counted)
+    split = sj.simulate(RADAR, SCENE, motion, **kw)
+    assert calls == [-(-num_pulses // 2)] * 2
+    np.testing.assert_array_equal(np.asarray(split.data), np.asarray(whole.data))
+    np.testing.assert_array_equal(np.asarray(split.azimuth), np.asarray(whole.azimuth))
+    assert split.method == whole.method
+
+
+def test_which_calls_run_as_pulse_blocks(monkeypatch):
+    """Only a pulse-local (exact) model's unbatched call on a CPU device of a machine with
+    the cores for it, estimated at or above the threshold, with nothing traced."""
+    device = jax.devices("cpu")[0]
+    acquisition = Acquisition(num_pulses=N, num_range=M, near_range=NEAR, azimuth_center=0.0)
+    call = _simulate.CallPlan()
+
+    still = sj.Motion()
+
+    def blocks(method, threshold, motion=still, call=call, cores=2):
+        monkeypatch.setattr(_simulate, "HOST_SPLIT_SECONDS", threshold)
+        monkeypatch.setattr(_simulate, "_usable_cores", lambda: cores)
+        simulator = _registry.build(method, {})
+        plan = simulator.prepare(RADAR, SCENE, acquisition, motion)
+        return _simulate._host_blocks(simulator, plan, RADAR, SCENE, motion, acquisition,
+                                      jnp.complex128, call, device)
+
+    assert blocks("time_domain_nufft", 0.0) == 2
+    assert blocks("time_domain", 0.0) == 2
+    assert blocks("time_domain_nufft", 1e9) == 1  # too small a call to split
+    assert blocks("fourier_2d", 0.0) == 1  # not pulse-local
+    assert blocks("time_domain", 0.0, cores=1) == 1
+    assert blocks("time_domain", 0.0, call=_simulate.CallPlan(batch_size=3)) == 1
