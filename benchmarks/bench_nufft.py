@@ -216,8 +216,9 @@ def _section(machine, rows, accuracy, load, size, finufft_rows=None):
         "bands). Each row runs in its own process under `/usr/bin/time -v`; \"host "
         "devices\": the process started with `XLA_FLAGS=--xla_force_host_platform_device_"
         "count=n`, so that `simulate` (devices=None: all) splits the pulses between n CPU "
-        "devices, which run concurrently (one device runs one program at a time, and the "
-        "spreading's scatter-add is one core's loop).",
+        "devices, which run concurrently (the spreading's scatter-add is one core's loop); "
+        "on one device `simulate` runs two blocks of pulses from two host threads at once "
+        "(`sarjax._simulate.HOST_BLOCKS`).",
         "",
         "| dtype | first call (compile + run) [s] | steady [s] | CPU of steady [s] | "
         "max/min wall | peak RSS [GB] | targets (≤ 30 s, ≤ 4 GB) |",
@@ -284,7 +285,7 @@ def main(argv=None):
     rows = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
     cases = [("complex128", None), ("complex64", None)]
-    if cores > 1:  # one device runs one program at a time; the spreading is one loop
+    if cores > 1:  # the pulses split between devices (on one: between host threads)
         cases.append(("complex64", cores))
     for dtype, devices in cases:
         result, peak = _run_child(dict(pulses=size[0], ranges=size[1], dtype=dtype,

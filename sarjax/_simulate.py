@@ -297,7 +297,10 @@ def simulate(
             transforms, each device then left with a block of the pulses by one
             all-to-all (so a scene larger than one device's memory runs on several;
             ``chirp_scaling`` is not split). The output is sharded over the devices by
-            pulse. Results equal the one-device results to rounding.
+            pulse. Results equal the one-device results to rounding. On one CPU device
+            an exact model's call estimated at 0.25 s or more runs as two blocks of
+            pulses, one host thread each, joined (equal to the whole call exactly; the
+            NUFFT model's scatter-add runs on one core).
         memory_limit: bound on the call's estimated peak memory, bytes or a string such as
             ``"2GiB"`` (default: ``$SARJAX_MEMORY_LIMIT``, else half the memory available
             now; see :mod:`sarjax._memory`). Over it the call runs fewer realizations at
