@@ -186,16 +186,21 @@ def _usable_cores() -> int:
 
 
 def _host_blocks(simulator, plan, radar, scene, motion, acquisition, dtype, call,
-                 device) -> int:
+                 device, memory=None) -> int:
     """The blocks of pulses a call runs as, one per host thread (1: the whole call at
     once): :data:`HOST_BLOCKS` for a pulse-local (exact) model's unbatched call on one
     CPU device of a machine with as many cores, whose cost model estimates at least
-    :data:`HOST_SPLIT_SECONDS`, with traced inputs nowhere."""
+    :data:`HOST_SPLIT_SECONDS`, with traced inputs nowhere and, under ``memory`` (the
+    call's :class:`MemoryPlan`), room for each further block's workspace at once."""
     kind = type(simulator)
     if (not kind.pulse_local or call.batch_size is not None or device.platform != "cpu"
             or acquisition.num_pulses < 2 * HOST_BLOCKS
             or _usable_cores() < HOST_BLOCKS
             or _validate.is_traced(radar, scene, motion, acquisition)):
+        return 1
+    if memory is not None and (memory.estimate.total
+                               + (HOST_BLOCKS - 1) * memory.estimate.workspace
+                               > memory.limit):
         return 1
     steady = simulator.cost(plan, radar, scene, acquisition, dtype).steady
     return HOST_BLOCKS if steady >= HOST_SPLIT_SECONDS else 1
@@ -325,7 +330,7 @@ def simulate(
     # the model's checks (the validity budgets) run in a worker thread while the
     # simulation runs (strict: before it, which then does not run); their warnings are
     # given here once both are done
-    simulator, plan, motion, acquisition, dtype, name, call, reason, _, checks = _prepare(
+    simulator, plan, motion, acquisition, dtype, name, call, reason, memory, checks = _prepare(
         radar, scene, motion, method=method, num_pulses=num_pulses, num_range=num_range,
         near_range=near_range, azimuth_center=azimuth_center, dtype=dtype, devices=devices,
         memory_limit=memory_limit, options=options, concurrent_checks=True,
@@ -337,7 +342,7 @@ def simulate(
         else:
             device = _sharding.resolve_devices(devices)[0]  # the first named
             blocks = _host_blocks(simulator, plan, radar, scene, motion, acquisition,
-                                  dtype, call, device)
+                                  dtype, call, device, memory)
             if blocks > 1:
                 raw = _run_in_blocks(run, blocks, device, simulator, plan, radar, scene,
                                      motion, acquisition, dtype, name, call)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 import warnings
+from types import SimpleNamespace
 
 import jax
 import jax.numpy as jnp
@@ -18,6 +19,7 @@ import pytest
 import sarjax as sj
 from sarjax import _simulate, _validate
 from sarjax._data import Acquisition
+from sarjax._memory import Estimate
 from sarjax.simulators import _registry
 
 RADAR = sj.presets.airborne_xband()
@@ -164,13 +166,17 @@ def test_which_calls_run_as_pulse_blocks(monkeypatch):
 
     still = sj.Motion()
 
-    def blocks(method, threshold, motion=still, call=call, cores=2):
+    def blocks(method, threshold, motion=still, call=call, cores=2, memory=None):
         monkeypatch.setattr(_simulate, "HOST_SPLIT_SECONDS", threshold)
         monkeypatch.setattr(_simulate, "_usable_cores", lambda: cores)
         simulator = _registry.build(method, {})
         plan = simulator.prepare(RADAR, SCENE, acquisition, motion)
         return _simulate._host_blocks(simulator, plan, RADAR, SCENE, motion, acquisition,
-                                      jnp.complex128, call, device)
+                                      jnp.complex128, call, device, memory)
+
+    def memory(limit):  # a plan of 100 MB, 60 MB of it one block's workspace
+        return SimpleNamespace(estimate=Estimate(output=30e6, inputs=10e6, workspace=60e6),
+                               limit=limit)
 
     assert blocks("time_domain_nufft", 0.0) == 2
     assert blocks("time_domain", 0.0) == 2
@@ -178,3 +184,6 @@ def test_which_calls_run_as_pulse_blocks(monkeypatch):
     assert blocks("fourier_2d", 0.0) == 1  # not pulse-local
     assert blocks("time_domain", 0.0, cores=1) == 1
     assert blocks("time_domain", 0.0, call=_simulate.CallPlan(batch_size=3)) == 1
+    # a second block's workspace at once must fit the memory limit
+    assert blocks("time_domain_nufft", 0.0, memory=memory(160e6)) == 2
+    assert blocks("time_domain_nufft", 0.0, memory=memory(159e6)) == 1
