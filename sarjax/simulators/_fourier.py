@@ -191,8 +191,9 @@ class AbstractFourierSimulator(AbstractSimulator):
         support, grid = self.grid(radar, scene, motion, acquisition)
 
         def span():  # None where traced (differentiated): the order cannot be chosen
-            dy, dz, _ = (Motion() if motion is None else motion).resolve(
-                acquisition.num_pulses)
+            given = Motion() if motion is None else motion  # (pulse,) or (batch, pulse)
+            dy, dz = (jnp.zeros(acquisition.num_pulses) if v is None else v
+                      for v in (given.horizontal, given.vertical))
             if is_traced((dy, dz, scene.range, scene.height)):
                 return None
             _, rs, hs = scene_samples(scene)
