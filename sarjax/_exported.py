@@ -73,6 +73,7 @@ _DAMAGED = (OSError, RuntimeError, ValueError, TypeError, KeyError, IndexError, 
 _folder: Path | None = None
 _loaded: collections.OrderedDict = collections.OrderedDict()
 _loaded_lock = threading.Lock()
+_compile_lock = threading.RLock()  # re-entered where a program traced under it calls another
 
 
 def set_folder(folder) -> Path | None:
@@ -139,7 +140,14 @@ def _call(fn, *args):
                 return _remember(key, entry, outputs)
             entry = None
     if entry is None:
-        with _compile_lock:  # a call from another thread may have compiled it meanwhile
+        # one thread compiles at a time: the test for an executable from XLA's cache
+        # counts the cache's hits, and compiling past the cache turns it off for the
+        # process meanwhile (a call's checks compile their own programs in a worker
+        # thread beside the simulation's: interleaved, one thread's compile could take
+        # the other's hit for its own, or find the cache turned back on half-way, and
+        # keep a program that misses functions); a call from another thread may have
+        # compiled it meanwhile
+        with _compile_lock:
             entry = _loaded.get(key)
             if entry is None:
                 entry = _compile(fn, static, leaves, in_tree)
@@ -180,20 +188,8 @@ def _first_run(compiled, leaves, fn, key):
 
 def _compile(fn, static, leaves, in_tree):
     """Trace, lower and compile ``fn`` on the flat array arguments (XLA's persistent
-    cache applies); the executable and the output template. One thread at a time: the
-    test for an executable from XLA's cache counts the cache's hits, and compiling past
-    the cache turns it off for the process meanwhile (a call's checks compile their own
-    programs in a worker thread beside the simulation's: interleaved, one thread's
-    compile could take the other's hit for its own, or find the cache turned back on
-    half-way, and keep a program that misses functions)."""
-    with _compile_lock:
-        return _compile_alone(fn, static, leaves, in_tree)
-
-
-_compile_lock = threading.RLock()
-
-
-def _compile_alone(fn, static, leaves, in_tree):
+    cache applies); the executable and the output template. Under ``_compile_lock``
+    (:func:`_call`)."""
     body = getattr(fn, "__wrapped__", fn)  # the Python function under eqx.filter_jit
     template = []
 

@@ -170,6 +170,17 @@ def _checks_pool():
         return _POOL
 
 
+def _forget_checks_pool():
+    """In a forked child: the parent's threads are not there (work given to its pool
+    would never run), so a new pool is made on the next call."""
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_checks_pool)
+
+
 # An exact model's call on one CPU device runs as this many blocks of pulses, each from
 # a host thread of its own, where it is estimated to take at least HOST_SPLIT_SECONDS:
 # XLA runs the NUFFT model's scatter-add and much of the time-domain kernel on one core,
@@ -239,17 +250,6 @@ def _run_in_blocks(run, blocks, device, simulator, plan, radar, scene, motion, a
         raws[0],
         data=jnp.concatenate([r.data[k] for r, k in zip(raws, keep, strict=True)]),
         azimuth=jnp.concatenate([r.azimuth[k] for r, k in zip(raws, keep, strict=True)]))
-
-
-def _forget_checks_pool():
-    """In a forked child: the parent's threads are not there (work given to its pool
-    would never run), so a new pool is made on the next call."""
-    global _POOL, _POOL_LOCK
-    _POOL, _POOL_LOCK = None, threading.Lock()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_checks_pool)
 
 
 def simulate(

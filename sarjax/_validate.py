@@ -11,6 +11,8 @@ import warnings
 import jax
 import numpy as np
 
+from .simulators._base import is_traced as is_traced
+
 # the window and sampling measures live with the budgets; re-exported here
 from .simulators._budgets import doppler_band as doppler_band
 from .simulators._budgets import echoes_outside_window as echoes_outside_window
@@ -262,11 +264,6 @@ def emit(findings, stacklevel=2):
     counted from the caller of this function."""
     for message, category in findings:
         warnings.warn(message, category, stacklevel=stacklevel + 1)
-
-
-def is_traced(*trees) -> bool:
-    """Whether any leaf of ``trees`` is a tracer (inside a user's transformation)."""
-    return any(isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(trees))
 
 
 def model_findings(simulator, radar, scene, motion, acquisition, strict=False,
