@@ -19,24 +19,31 @@ from .scene import PointTargets, ReflectivityGrid
 class Acquisition(eqx.Module):
     """Sampling grid of one acquisition: pulses along track and range samples.
 
-    Pulse ``p`` is at ``x'_p = azimuth_center + (p − (N_x − 1)/2) · v/PRF`` and range
+    Pulse ``p`` is at ``x'_p = azimuth_center + (p − (N_x − 1)/2 + s) · v/PRF`` and range
     sample ``k`` at ``r'_k = near_range + k · c/(2 f_s)`` (physics.md §1).
 
     Attributes:
         num_pulses: N_x (static).
         num_range: N_r (static).
         near_range: r' of the first range sample [m].
-        azimuth_center: x' of the middle pulse [m].
+        azimuth_center: x' of the middle pulse [m] (with ``pulse_offset`` 0).
+        pulse_offset: s, the pulses' index shift (default 0). A block of pulses of a
+            longer acquisition (``sarjax.simulate``'s splits between host threads and
+            devices) keeps that acquisition's centre and shifts its indices by a multiple
+            of ½: the index sum is then exact in float64, and each pulse lies where the
+            whole acquisition puts it, to the bit.
     """
 
     num_pulses: int = eqx.field(static=True)
     num_range: int = eqx.field(static=True)
     near_range: jnp.ndarray = eqx.field(converter=lambda v: jnp.asarray(v, dtype=float))
     azimuth_center: jnp.ndarray = eqx.field(converter=lambda v: jnp.asarray(v, dtype=float))
+    pulse_offset: jnp.ndarray = eqx.field(default=0.0,
+                                          converter=lambda v: jnp.asarray(v, dtype=float))
 
     def pulse_azimuths(self, radar):
         """(azimuth,) x' of every pulse [m]."""
-        index = jnp.arange(self.num_pulses) - (self.num_pulses - 1) / 2
+        index = jnp.arange(self.num_pulses) - (self.num_pulses - 1) / 2 + self.pulse_offset
         return self.azimuth_center + index * radar.azimuth_spacing
 
     def range_axis(self, radar):

@@ -58,17 +58,19 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
         return jnp.pad(values, widths, mode="edge")
 
     motion = jax.tree_util.tree_map(pad, motion)
-    # x' of the middle pulse of block s (pulses s·n … s·n + n − 1 of the acquisition)
-    offsets = jnp.arange(n_pulse) * block_pulses + (block_pulses - 1) / 2 - (num_pulses - 1) / 2
-    centres = acquisition.azimuth_center + offsets * radar.azimuth_spacing
+    # the index shift of block s (pulses s·n … s·n + n − 1 of the acquisition), in
+    # multiples of ½: each block's pulses fall where the whole acquisition's do, exactly
+    offsets = (acquisition.pulse_offset + jnp.arange(n_pulse) * block_pulses
+               + ((block_pulses - 1) / 2 - (num_pulses - 1) / 2))
 
-    def local(motion_block, centre):
+    def local(motion_block, offset):
         if by_columns:  # every pulse here; the columns split inside the kernel
             with _fourier_engine.columns_across("pulse", n_pulse):
                 return realizations(simulator, plan, radar, scene, motion_block,
                                     acquisition, dtype, block_batch, call.batch_chunk)
         block = Acquisition(num_pulses=block_pulses, num_range=acquisition.num_range,
-                            near_range=acquisition.near_range, azimuth_center=centre[0])
+                            near_range=acquisition.near_range,
+                            azimuth_center=acquisition.azimuth_center, pulse_offset=offset[0])
         return realizations(simulator, plan, radar, scene, motion_block, block, dtype,
                             block_batch, call.batch_chunk)
 
@@ -76,7 +78,7 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
     motion_spec = (PartitionSpec("batch") if batched else PartitionSpec()) if by_columns else spec
     # check_vma=False: the simulators' loops start from unvarying carries (zeros)
     data = jax.shard_map(local, mesh=mesh, in_specs=(motion_spec, PartitionSpec("pulse")),
-                         out_specs=spec, check_vma=False)(motion, centres)
+                         out_specs=spec, check_vma=False)(motion, offsets)
     return data[: call.batch_size, :num_pulses] if batched else data[:num_pulses]
 
 
