@@ -32,7 +32,12 @@ def spreading_kernel(width, oversampling, beta_scale=1.0):
     """
     # β for a 2× grid (FINUFFT's choice, 2.30 w), scaled for other oversampling factors
     beta = beta_scale * 2.30 * width * (1.0 - 0.5 / oversampling) / 0.75
-    degree = width + 4
+    # degree w + 1: its worst errors equal those of w + 4 to 0.2 dB, for the inverse Stolt
+    # interpolation over 2–16 taps (test_interpolation's worst cases and 6 draws per
+    # width: 2 taps −21.7, 4: −60.8, 8: −130.2, 16: −250.6 dB) and for the NUFFT at
+    # tolerances 1e-2 … 1e-10 (−51.1 … −214.3 dB against the direct sum); each weight is
+    # then three Horner steps shorter
+    degree = width + 1
     f = 0.5 * (1 - np.cos(np.pi * (np.arange(4 * degree) + 0.5) / (4 * degree)))
     coefficients = np.empty((degree + 1, width))
     for i in range(width):

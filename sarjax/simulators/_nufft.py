@@ -75,13 +75,19 @@ def _spread(points, amplitude, width, grid, coefficients, reach):
     first = jnp.clip(start, -low, grid + low).astype(jnp.int32) + low
     table = jnp.asarray(coefficients, real)
 
+    length = grid + 2 * low + 1  # cells a tap's window spans: first ∈ [0, grid + 2 low]
+
     def add_tap(i, extended):
         c = table[:, i]
         tap = jnp.full_like(f, c[-1])
         for k in range(table.shape[0] - 2, -1, -1):
             tap = tap * f + c[k]
-        return extended.at[first + i].add(amplitude * tap.astype(amplitude.dtype),
-                                          mode="promise_in_bounds")
+        # tap i added at ``first`` into the grid's window from cell i (a slice of the
+        # small grid): the scatterers' indices are not formed again per tap
+        window = jax.lax.dynamic_slice_in_dim(extended, i, length)
+        window = window.at[first].add(amplitude * tap.astype(amplitude.dtype),
+                                      mode="promise_in_bounds")
+        return jax.lax.dynamic_update_slice_in_dim(extended, window, i, 0)
 
     extended = jnp.zeros(grid + 2 * low + width, amplitude.dtype)
     extended = jax.lax.fori_loop(0, width, add_tap, extended)
