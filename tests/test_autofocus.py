@@ -162,13 +162,22 @@ def test_autofocus_reduces_the_phase_error(seed, rms):
     footprint), SNR 20 dB: the model-based estimate removes at least 75 % of the
     aperture-detrended line-of-sight phase error in every range block, and does at least as
     well as single-history PGA on the same data (measured on seeds 0, 7, 23: 88–99 % removed,
-    0.014–0.11 rad left against PGA's 0.05–0.15 rad; 75 % leaves room for other draws)."""
+    0.014–0.11 rad left against PGA's 0.05–0.15 rad; 75 % leaves room for other draws).
+
+    The estimate kept is what is asserted. Where the starts land on different optima the
+    call says so (an AutofocusWarning naming the disagreement, allowed here; any other
+    warning fails): on seed 39 (4 mm) one of three starts moves by 0.141 rad when the data
+    change by 3e-7 of their peak (the NUFFT simulator's rounding, within its 1e-4
+    tolerance) while the estimate kept removes 98.5 % and beats PGA."""
     radar = _radar()
     truth = _motion(radar, rms, seed)
     raw = _noisy(radar, _scene(radar, seed), truth, seed)
     blocks = af.range_blocks(radar, raw.range)
     zero = af.residual_phase_rms(radar, af.no_estimate(raw), truth, blocks)
-    result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", sj.inverse.AutofocusWarning)
+        result = sj.inverse.autofocus(radar, raw, max_steps=20, estimate_pointing=False)
+    assert all("starts differ" in str(w.message) for w in caught), [str(w.message) for w in caught]
     ours = af.residual_phase_rms(radar, result, truth, blocks)
     assert np.all(ours <= 0.25 * zero), (ours, zero)
     pga = sj.inverse.pga(radar, raw)
