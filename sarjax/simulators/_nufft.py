@@ -175,8 +175,9 @@ class TimeDomainNUFFT(AbstractExactSimulator):
 
     def memory(self, plan, radar, scene, acquisition, dtype) -> int:
         """≈ 20 oversampled-grid-sized tables (chirp spectrum, deconvolution, indices),
-        and per pulse in flight (``loops`` concurrent loops of ``chunk()`` pulses) half a
-        grid and the scatterers' geometry and spread values; ``engine="direct"`` adds its
+        and per pulse in flight (``loops`` concurrent loops of ``chunk()`` pulses) the
+        extended grid and a tap's window of it (≈ 2 grids each) and the scatterers'
+        geometry and spread values; ``engine="direct"`` adds its
         (scatterer, band · n_r) phasor table per pulse of a chunk (fitted to XLA's memory
         analysis, with a margin)."""
         n_r, bands, grid, width = self.sizes(plan)
@@ -184,7 +185,7 @@ class TimeDomainNUFFT(AbstractExactSimulator):
         item = np.dtype(dtype).itemsize
         chunk = self.chunk(plan, n, n_s, dtype)
         in_flight = max(1, min(self.loops, n)) * chunk
-        per_pulse = grid * 16 // 2 + n_s * (6 * 8 + width * item)
+        per_pulse = 4 * grid * item + n_s * (6 * 8 + width * item)
         workspace = 20 * grid * 16 + in_flight * per_pulse
         if self.engine == "direct":
             workspace += 1.2 * chunk * n_s * bands * n_r * 16
