@@ -6,6 +6,7 @@ and from an ``xarray.Dataset``; :mod:`sarjax.io` writes that dataset to a file.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import equinox as eqx
@@ -45,6 +46,13 @@ class Acquisition(eqx.Module):
         """(azimuth,) x' of every pulse [m]."""
         index = jnp.arange(self.num_pulses) - (self.num_pulses - 1) / 2 + self.pulse_offset
         return self.azimuth_center + index * radar.azimuth_spacing
+
+    def pulse_block(self, start, size):
+        """The acquisition of pulses ``start … start + size − 1`` of this one (``start``
+        may be traced): its centre kept, its indices shifted by a multiple of ½, so that
+        each pulse lies where this acquisition puts it, to the bit."""
+        shift = self.pulse_offset + (start - (self.num_pulses - size) / 2)
+        return dataclasses.replace(self, num_pulses=size, pulse_offset=shift)
 
     def range_axis(self, radar):
         """(range,) r' of every range sample [m]."""

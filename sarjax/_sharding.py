@@ -10,7 +10,6 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from ._data import Acquisition
 from .simulators import _fourier_engine
 
 
@@ -58,19 +57,15 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
         return jnp.pad(values, widths, mode="edge")
 
     motion = jax.tree_util.tree_map(pad, motion)
-    # the index shift of block s (pulses s·n … s·n + n − 1 of the acquisition), in
-    # multiples of ½: each block's pulses fall where the whole acquisition's do, exactly
-    offsets = (acquisition.pulse_offset + jnp.arange(n_pulse) * block_pulses
-               + ((block_pulses - 1) / 2 - (num_pulses - 1) / 2))
+    # block s holds pulses s·n … s·n + n − 1 of the acquisition (the last padded)
+    firsts = jnp.arange(n_pulse) * block_pulses
 
-    def local(motion_block, offset):
+    def local(motion_block, first):
         if by_columns:  # every pulse here; the columns split inside the kernel
             with _fourier_engine.columns_across("pulse", n_pulse):
                 return realizations(simulator, plan, radar, scene, motion_block,
                                     acquisition, dtype, block_batch, call.batch_chunk)
-        block = Acquisition(num_pulses=block_pulses, num_range=acquisition.num_range,
-                            near_range=acquisition.near_range,
-                            azimuth_center=acquisition.azimuth_center, pulse_offset=offset[0])
+        block = acquisition.pulse_block(first[0], block_pulses)
         return realizations(simulator, plan, radar, scene, motion_block, block, dtype,
                             block_batch, call.batch_chunk)
 
@@ -78,7 +73,7 @@ def sharded(simulator, plan, radar, scene, motion, acquisition, dtype, call):
     motion_spec = (PartitionSpec("batch") if batched else PartitionSpec()) if by_columns else spec
     # check_vma=False: the simulators' loops start from unvarying carries (zeros)
     data = jax.shard_map(local, mesh=mesh, in_specs=(motion_spec, PartitionSpec("pulse")),
-                         out_specs=spec, check_vma=False)(motion, offsets)
+                         out_specs=spec, check_vma=False)(motion, firsts)
     return data[: call.batch_size, :num_pulses] if batched else data[:num_pulses]
 
 

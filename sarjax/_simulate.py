@@ -231,10 +231,8 @@ def _run_in_blocks(run, blocks, device, simulator, plan, radar, scene, motion, a
     starts = [min(b * size, n - size) for b in range(blocks)]
     parts = []
     for start in starts:
-        shift = acquisition.pulse_offset + (start - (n - size) / 2)  # multiples of ½: exact
-        part = dataclasses.replace(acquisition, num_pulses=size, pulse_offset=shift)
         moved = jax.tree_util.tree_map(lambda v, s=start: v[s:s + size], motion)
-        parts.append((part, moved))
+        parts.append((acquisition.pulse_block(start, size), moved))
 
     def one(args):
         part, moved = args
