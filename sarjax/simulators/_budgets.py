@@ -495,7 +495,8 @@ def azimuth_budgets(support, grid) -> tuple[Budget, ...]:
       default padding where the wrap is above −35 dB (airborne set, ``fourier_2d``,
       ±20° of squint, 1–3 targets inside and beyond 256–512-pulse windows, paddings
       0–0.8 footprints: −7.3 against −7.3 dB, −15.4 / −15.3, −33.3 / −33.4); the band
-      cut's ringing is not counted (≤ −42 dB where nothing else wraps).
+      cut's ringing is not counted (≤ −42 dB where nothing else wraps); point targets
+      at one place add as amplitudes (``_extent._coincident_sums``).
     * ``azimuth_extent``: the azimuth span the scene needs over what one scatterer in the
       window needs; beyond 10 the scene is mostly elsewhere (simulate the part that
       matters, or a larger window).
