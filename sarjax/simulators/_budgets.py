@@ -496,7 +496,7 @@ def azimuth_budgets(support, grid) -> tuple[Budget, ...]:
       ±20° of squint, 1–3 targets inside and beyond 256–512-pulse windows, paddings
       0–0.8 footprints: −7.3 against −7.3 dB, −15.4 / −15.3, −33.3 / −33.4); the band
       cut's ringing is not counted (≤ −42 dB where nothing else wraps); point targets
-      at one place add as amplitudes (``_extent._coincident_sums``).
+      at one place add as amplitudes (:func:`coincident_power`).
     * ``azimuth_extent``: the azimuth span the scene needs over what one scatterer in the
       window needs; beyond 10 the scene is mostly elsewhere (simulate the part that
       matters, or a larger window).
@@ -584,6 +584,27 @@ def scene_samples(scene, max_points=1024):
     raise ValueError(f"scene={type(scene).__name__} is not PointTargets or ReflectivityGrid")
 
 
+def coincident_power(scene, gamma):
+    """The echo energy ``|γ|²`` (scatterer,) of a PointTargets scene's scatterers with
+    those at one place and one velocity taken together: their echoes are one echo, of
+    energy ``|Σγ|²`` (two equal coincident targets record 4, not 2), shared equally
+    among them. Distinct places add as powers: their echoes' cross terms average out
+    once they are a resolution cell apart. ``gamma`` (scatterer,) concrete."""
+    gamma = np.asarray(gamma)
+    if gamma.size < 2:
+        return np.abs(gamma) ** 2
+    place = [np.broadcast_to(np.asarray(getattr(scene, name), float), gamma.shape)
+             for name in ("azimuth", "range", "height", "velocity_range", "velocity_azimuth")]
+    _, inverse, counts = np.unique(np.stack(place, axis=1), axis=0, return_inverse=True,
+                                   return_counts=True)
+    if counts.size == gamma.size:
+        return np.abs(gamma) ** 2
+    inverse = inverse.ravel()
+    sums = np.zeros(counts.size, complex)
+    np.add.at(sums, inverse, gamma)
+    return (np.abs(sums) ** 2 / counts)[inverse]
+
+
 def scene_sample_power(scene, count):
     """``|γ|²`` (sample,) of the scatterers :func:`scene_samples` keeps (``count`` of
     them); ones where the reflectivity is traced."""
@@ -591,7 +612,7 @@ def scene_sample_power(scene, count):
     if gamma is None:
         return np.ones(count)
     if isinstance(scene, PointTargets):
-        power = np.abs(np.broadcast_to(gamma, np.shape(scene.azimuth))) ** 2
+        power = coincident_power(scene, np.broadcast_to(gamma, np.shape(scene.azimuth)))
         return power[_sample_index(scene, count)].astype(float)
     ia, ir = _grid_lattice(scene)
     power = np.abs(np.broadcast_to(gamma, (np.size(scene.azimuth), np.size(scene.range))))

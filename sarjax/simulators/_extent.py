@@ -26,6 +26,7 @@ import numpy as np
 from .. import antenna
 from .._numerics.interpolation import next_fast_len
 from ._base import is_traced
+from ._budgets import coincident_power
 from ._moving_target import spectrum_terms
 
 
@@ -734,28 +735,6 @@ def _wrapped_energy(radar, scene, x, r, look, window, period, kept, unheld_movin
     wrapped += energy(lo, np.clip(w0 - reach, lo, hi)) + energy(np.clip(w1 + reach, lo, hi), hi)
     wrapped = np.where(unheld_moving, np.maximum(wrapped, recorded), wrapped)
     gamma = np.broadcast_to(np.asarray(scene.reflectivity), x.shape)
-    weight = np.abs(_coincident_sums(scene, x, r, gamma)) ** 2 * kept
+    weight = (coincident_power(scene, gamma) if x.ndim == 1 else np.abs(gamma) ** 2) * kept
     total = float(np.sum(weight * recorded))
     return float(np.sum(weight * wrapped)) / total if total > 0 else 0.0
-
-
-def _coincident_sums(scene, x, r, gamma):
-    """``gamma`` summed over the point scatterers at one place with one velocity, held by
-    the first of each such set (0 for the others): their echoes are one echo, whose
-    energy is ``|Σγ|²``, not ``Σ|γ|²`` (two equal coincident targets record 4, not 2).
-    Distinct places add as powers: their echoes' cross terms average out once they are
-    a resolution cell apart (a grid's cells, ``x`` (n_az, 1) by ``r`` (1, n_r), are
-    distinct)."""
-    if x.ndim != 1 or x.size < 2:
-        return gamma
-    place = [x, r] + [np.broadcast_to(np.asarray(getattr(scene, name, 0.0), float), x.shape)
-                      for name in ("height", "velocity_range", "velocity_azimuth")]
-    _, first, inverse = np.unique(np.stack(place, axis=1), axis=0, return_index=True,
-                                  return_inverse=True)
-    if first.size == x.size:
-        return gamma
-    sums = np.zeros(first.size, complex)
-    np.add.at(sums, inverse.ravel(), gamma)
-    out = np.zeros(x.shape, complex)
-    out[first] = sums
-    return out
