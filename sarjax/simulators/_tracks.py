@@ -291,13 +291,17 @@ class SmallDeviationTrack(AbstractTrack):
 
 @_exported.cached
 @eqx.filter_jit
-def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
-    """Algorithm B's lobe maxima over the (pulse, scatterer) pairs, in one program:
-    max|R − R_n − δr_xr c|, the spread max|δr_xr − mean over pulses|,
-    max|R − R_n − cos φ_d δr_xr|, and the envelope terms' maxima (corrected, uncorrected,
-    their sum); ``c = r/R_n``, slopes along the pulses as ``numpy.gradient``; then the
+def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants, coupled,
+                               envelope_corrected):
+    """Algorithm B's lobe maxima over the (pulse, scatterer) pairs that its budgets use,
+    in one program: ``coupled`` (a coupling series of order ≥ 1): max|R − R_n − δr_xr c|
+    and the spread max|δr_xr − mean over pulses|, else max|R − R_n − cos φ_d δr_xr|;
+    ``envelope_corrected``: the envelope terms' maxima, corrected and uncorrected, else
+    their sum's (``c = r/R_n``, slopes along the pulses as ``numpy.gradient``); then the
     sums of :func:`~._budgets.recorded_mean_square` of B's phase error
-    ``k₀ (R − R_n − δr_xr c)`` (``power`` |γ|² (scatterer,)). Blocks of
+    ``k₀ (R − R_n − δr_xr c)`` (``power`` |γ|² (scatterer,)). Returns (maxima, sums).
+    Only the maxima the budgets use are formed: XLA forms each maximum's terms again in
+    its own reduction, so the unused ones cost a fifth of the program. Blocks of
     scatterers at a time (all pulses each: the slopes and the mean are along them), so
     that the dozen intermediates stay in cache, each block's pairs formed inside it
     (:func:`~._budgets.lobe_pairs` of its scatterers): formed over the whole plane
@@ -315,6 +319,9 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
 
     # padded scatterers: outside the lobe, no echo
     real = (jnp.arange(blocks * width) < n_scatterers).reshape(blocks, width)
+    # ψ = δr_xr − δr: its slope is δr_xr's less δr's (per pulse), not a second
+    # gradient over the pairs
+    reference_slope = jnp.gradient(delta_r, dx, axis=0)
 
     def block(args):
         xs, rs, hs, power, real = args
@@ -336,7 +343,7 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         # stationary ξ of each (pulse, scatterer): ξ = −k₀ a/R_n, √(k₀² − ξ²) = k₀ c
         alpha = k0 * jnp.abs(cos_look - c_d)
         los_slope = jnp.gradient(los, dx, axis=0)
-        psi_slope = jnp.gradient(psi, dx, axis=0)
+        psi_slope = los_slope - reference_slope
         # ψ's Doppler shift Δξ = k₀ c_d ∂ψ/∂x' moves its echo by R(ξ) − R(ξ − Δξ), R(ξ) =
         # r k₀/√(k₀² − ξ²) the envelope's migration: corrected to second order in Δξ
         # (R′Δξ = c_d |a ∂ψ/∂x'|/c², R″Δξ²/2 = r (c_d ∂ψ/∂x')² (3 − 2c²)/(2c⁵)); the
@@ -353,15 +360,13 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants):
         rest = exact - nominal - los * cos_look
         recorded = recorded_mean_square(
             pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power, k0 * rest)
-        return jnp.stack([
-            lobe_peak(lobe, rest),
-            lobe_peak(lobe, los - jnp.mean(los, axis=0, keepdims=True)),
-            lobe_peak(lobe, exact - nominal - c_d * los),
-            lobe_peak(lobe, corrected), lobe_peak(lobe, uncorrected),
-            lobe_peak(lobe, corrected + uncorrected)]), jnp.stack(recorded)
+        terms = ([rest, los - jnp.mean(los, axis=0, keepdims=True)] if coupled
+                 else [exact - nominal - c_d * los])
+        terms += [corrected, uncorrected] if envelope_corrected else [corrected + uncorrected]
+        return jnp.stack([lobe_peak(lobe, t) for t in terms]), jnp.stack(recorded)
 
     peaks, sums = jax.lax.map(block, (split(xs), split(rs), split(hs), split(power), real))
-    return tuple(jnp.max(peaks, axis=0)) + tuple(jnp.sum(sums, axis=0))
+    return tuple(jnp.max(peaks, axis=0)), tuple(jnp.sum(sums, axis=0))
 
 
 _SCATTERER_BLOCK = 128  # scatterers per block of _moderate_deviation_maxima (fastest of 8–1024)
@@ -528,25 +533,29 @@ class ModerateDeviationTrack(AbstractTrack):
         squint = lobe.squint
         c_d = math.cos(squint)
         k0, dx = lobe.k0, lobe.dx
-        maxima = _moderate_deviation_maxima(lobe.pairs, lobe.pattern, lobe.power,
-                                            lobe.delta_r, np.asarray([k0, c_d, dx]))
-        (rest, spread, straight, corrected, uncorrected, both, error,
-         recorded) = (float(v) for v in maxima)
         order = self.coupling_order(sim, lobe.radar, lobe.line_of_sight_span)
+        corrected = bool(sim.envelope_correction)
+        maxima, sums = _moderate_deviation_maxima(
+            lobe.pairs, lobe.pattern, lobe.power, lobe.delta_r, np.asarray([k0, c_d, dx]),
+            bool(order), corrected)
+        maxima = [float(v) for v in maxima]
+        error, recorded = (float(v) for v in sums)
+        coupling, envelope = (maxima[:2], maxima[2:]) if order else (maxima[:1], maxima[1:])
         if order:
+            rest, spread = coupling
             value = (coupling_alpha_max(lobe.radar) * spread) ** (order + 1) / math.factorial(
                 order + 1) + k0 * rest
             meaning = f"coupling after its order-{order} correction"
         else:
-            value = k0 * straight
+            value = k0 * coupling[0]  # max|R − R_n − cos φ_d δr_xr|
             meaning = "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)"
         budgets = [Budget("epsilon_11", value, PHASE_THRESHOLD, meaning, error=PHASE_MAXIMUM)]
         eta_max = lobe.eta_max
-        if sim.envelope_correction:
-            value = (eta_max * corrected) ** 2 / 2 + eta_max * uncorrected
+        if corrected:
+            value = (eta_max * envelope[0]) ** 2 / 2 + eta_max * envelope[1]
             meaning = "envelope terms after the first-order correction"
         else:
-            value = eta_max * both
+            value = eta_max * envelope[0]  # the envelope terms' sum
             meaning = "η_max max(envelope terms) (seed eq. 12; seed 002 eq. 11)"
         budgets.append(Budget("epsilon_12", value, PHASE_THRESHOLD, meaning, error=PHASE_MAXIMUM))
         budgets.append(Budget("epsilon_height", lobe.height_under_beam_rms(), HEIGHT_THRESHOLD,
