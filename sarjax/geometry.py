@@ -45,7 +45,14 @@ def line_of_sight_deviation(horizontal, vertical, slant_range, height, platform_
     """
     drop = platform_height - height
     y = ground_range(slant_range, height, platform_height)
-    q = horizontal * (horizontal - 2 * y) + vertical * (vertical + 2 * drop)
+    return line_of_sight_deviation_across(horizontal, vertical, slant_range, y, drop)
+
+
+def line_of_sight_deviation_across(horizontal, vertical, slant_range, ground, drop):
+    """:func:`line_of_sight_deviation` from the scatterer's cross-track position: ground
+    range ``y_P`` (:func:`ground_range`) and ``drop = H − h`` [m], which do not change
+    from pulse to pulse (a per-pulse loop forms them once)."""
+    q = horizontal * (horizontal - 2 * ground) + vertical * (vertical + 2 * drop)
     return q / (_sqrt(slant_range**2 + q) + slant_range)
 
 

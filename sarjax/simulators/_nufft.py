@@ -238,6 +238,14 @@ class TimeDomainNUFFT(AbstractExactSimulator):
 
         targets = (scene.azimuth, scene.range, scene.height, scene.reflectivity,
                    scene.velocity_range, scene.velocity_azimuth)
+        # per scatterer, formed once for every pulse: the cross-track position, the
+        # pattern's scale 1/X (a product per pulse, not a division), the range from the
+        # window's start and the reflectivity in the output's precision
+        ground = geometry.ground_range(scene.range, scene.height, radar.height)
+        drop = radar.height - scene.height
+        inverse_footprint = 1 / radar.footprint(scene.range)
+        from_near = scene.range - near
+        reflectivity = scene.reflectivity.astype(dtype)
         x_pulse = acquisition.pulse_azimuths(radar)
         horizontal, vertical, pointing = motion.resolve(acquisition.num_pulses)
 
@@ -249,18 +257,18 @@ class TimeDomainNUFFT(AbstractExactSimulator):
                 u = pattern_argument(radar, pulse[3], along, moved, los)
             else:
                 x_p, dy, dz, daz = pulse
-                los = geometry.line_of_sight_deviation(
-                    dy, dz, scene.range, scene.height, radar.height)
+                los = geometry.line_of_sight_deviation_across(dy, dz, scene.range, ground,
+                                                              drop)
                 along = x_p - scene.azimuth
                 offset = geometry.range_offset(along, scene.range, los)
-                u = (along - (scene.range + los) * daz) / radar.footprint(scene.range)
-            position = (scene.range - near) + offset  # ρ − r'_0
+                u = (along - (scene.range + los) * daz) * inverse_footprint
+            position = from_near + offset  # ρ − r'_0
             visible = (position > -half) & (position < window + half)
             # the pattern and the phasor in the output's precision: the phase is formed
             # and reduced in float64 (reduced_phasor), the pattern's argument rounded
             # only after the float64 geometry (complex64: −130 dB from complex128)
             gain = jnp.where(visible, radar.pattern(u.astype(real)), 0.0)
-            amplitude = (scene.reflectivity.astype(dtype) * gain.astype(real)
+            amplitude = (reflectivity * gain.astype(real)
                          * reduced_phasor(-(carrier + k0 * offset), dtype))
             return position, amplitude
 
