@@ -589,12 +589,14 @@ def coincident_power(scene, gamma):
     those at one place and one velocity taken together: their echoes are one echo, of
     energy ``|Σγ|²`` (two equal coincident targets record 4, not 2), shared equally
     among them. Distinct places add as powers: their echoes' cross terms average out
-    once they are a resolution cell apart. ``gamma`` (scatterer,) concrete."""
+    once they are a resolution cell apart. ``gamma`` (scatterer,) concrete; where a
+    place or a velocity is traced, every scatterer counts as its own."""
     gamma = np.asarray(gamma)
-    if gamma.size < 2:
+    values = [_concrete(getattr(scene, name))
+              for name in ("azimuth", "range", "height", "velocity_range", "velocity_azimuth")]
+    if gamma.size < 2 or any(v is None for v in values):  # a traced place: as powers
         return np.abs(gamma) ** 2
-    place = [np.broadcast_to(np.asarray(getattr(scene, name), float), gamma.shape)
-             for name in ("azimuth", "range", "height", "velocity_range", "velocity_azimuth")]
+    place = [np.broadcast_to(v.astype(float), gamma.shape) for v in values]
     _, inverse, counts = np.unique(np.stack(place, axis=1), axis=0, return_inverse=True,
                                    return_counts=True)
     if counts.size == gamma.size:
