@@ -585,26 +585,50 @@ def scene_samples(scene, max_points=1024):
 
 
 def coincident_power(scene, gamma):
-    """The echo energy ``|γ|²`` (scatterer,) of a PointTargets scene's scatterers with
-    those at one place and one velocity taken together: their echoes are one echo, of
-    energy ``|Σγ|²`` (two equal coincident targets record 4, not 2), shared equally
-    among them. Distinct places add as powers: their echoes' cross terms average out
-    once they are a resolution cell apart. ``gamma`` (scatterer,) concrete; where a
-    place or a velocity is traced, every scatterer counts as its own."""
+    """The echo energy ``|γ|²`` of each scatterer (``gamma`` concrete, the scene's shape),
+    a PointTargets scene's targets at one place and one velocity taken together: their
+    echoes are one echo, of energy ``|Σγ|²`` (two equal coincident targets record 4, not
+    2), shared equally among them. Distinct places add as powers: their echoes' cross
+    terms average out once they are a resolution cell apart (a grid's cells are distinct).
+    Where a place or a velocity is traced, every target counts as its own.
+
+    The places are grouped by a 64-bit digest first (one sort, ~40 ms for 400 000
+    targets; grouping the rows themselves took 0.8 s), then exactly among the targets
+    whose digest repeats."""
     gamma = np.asarray(gamma)
+    power = np.abs(gamma) ** 2
+    if not isinstance(scene, PointTargets) or gamma.size < 2:
+        return power
     values = [_concrete(getattr(scene, name))
               for name in ("azimuth", "range", "height", "velocity_range", "velocity_azimuth")]
-    if gamma.size < 2 or any(v is None for v in values):  # a traced place: as powers
-        return np.abs(gamma) ** 2
-    place = [np.broadcast_to(v.astype(float), gamma.shape) for v in values]
-    _, inverse, counts = np.unique(np.stack(place, axis=1), axis=0, return_inverse=True,
+    if any(v is None for v in values):  # a traced place: as powers
+        return power
+    # + 0.0: −0 and 0 are one place (and one digest)
+    place = np.stack([np.broadcast_to(v.astype(float), gamma.shape) + 0.0 for v in values],
+                     axis=1)
+    digest = np.zeros(gamma.size, np.uint64)
+    for column in place.T:
+        digest = (digest ^ np.ascontiguousarray(column).view(np.uint64)) * _DIGEST_FACTOR
+        digest ^= digest >> np.uint64(29)
+    order = np.argsort(digest)
+    same = digest[order][1:] == digest[order][:-1]
+    if not same.any():
+        return power
+    repeats = np.zeros(gamma.size, bool)
+    repeats[1:] |= same
+    repeats[:-1] |= same
+    candidates = order[repeats]
+    _, inverse, counts = np.unique(place[candidates], axis=0, return_inverse=True,
                                    return_counts=True)
-    if counts.size == gamma.size:
-        return np.abs(gamma) ** 2
     inverse = inverse.ravel()
     sums = np.zeros(counts.size, complex)
-    np.add.at(sums, inverse, gamma)
-    return (np.abs(sums) ** 2 / counts)[inverse]
+    np.add.at(sums, inverse, gamma[candidates])
+    power = power.astype(float)
+    power[candidates] = (np.abs(sums) ** 2 / counts)[inverse]
+    return power
+
+
+_DIGEST_FACTOR = np.uint64(0x9E3779B97F4A7C15)  # 2⁶⁴/φ, an odd multiplier that mixes bits
 
 
 def scene_sample_power(scene, count):

@@ -735,6 +735,6 @@ def _wrapped_energy(radar, scene, x, r, look, window, period, kept, unheld_movin
     wrapped += energy(lo, np.clip(w0 - reach, lo, hi)) + energy(np.clip(w1 + reach, lo, hi), hi)
     wrapped = np.where(unheld_moving, np.maximum(wrapped, recorded), wrapped)
     gamma = np.broadcast_to(np.asarray(scene.reflectivity), x.shape)
-    weight = (coincident_power(scene, gamma) if x.ndim == 1 else np.abs(gamma) ** 2) * kept
+    weight = coincident_power(scene, gamma) * kept
     total = float(np.sum(weight * recorded))
     return float(np.sum(weight * wrapped)) / total if total > 0 else 0.0

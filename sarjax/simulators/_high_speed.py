@@ -208,7 +208,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
         groups), and the pulses' range spectra with their transform. Coefficients
         fitted to XLA's memory analysis over points and grids, 1–16 groups, 0 and 2
         Doppler bands, 64 and 256 columns a chunk, both dtypes: the estimate is
-        1.2–2.1× XLA's peak there."""
+        1.17–2.20× XLA's peak there."""
         n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
         chunk = min(max(16, self.column_chunk // shards), -(-plan.range_fft_size // shards))
         item = jnp.dtype(dtype).itemsize
