@@ -281,12 +281,13 @@ def _moving_points(groups, count=96):
 
 
 @pytest.mark.parametrize("groups, bands", [
-    (4, 0), (16, 2),
-    pytest.param(2, 2, marks=pytest.mark.slow), pytest.param(6, 0, marks=pytest.mark.slow),
-    pytest.param(8, 2, marks=pytest.mark.slow)])
+    (16, 0), (2, 2),  # CI: the estimate without a group term gave 0.881 at (16, 0)
+    pytest.param(4, 0, marks=pytest.mark.slow), pytest.param(6, 0, marks=pytest.mark.slow),
+    pytest.param(8, 2, marks=pytest.mark.slow), pytest.param(16, 2, marks=pytest.mark.slow)])
 def test_high_speed_estimate_bounds_xla_over_velocity_groups(groups, bands):
     """high_speed keeps a set of per-column terms for each velocity group (its XLA peak
-    grew 1.5–3.7× from 1 to 16 groups, where the estimate had fallen below it: 0.84): the
+    grew 1.5–3.7× from 1 to 16 groups, where the estimate had fallen below it: 0.84 with
+    two Doppler bands, 0.88 without; 16 groups with bands compile in 17–28 s): the
     estimate stays 1–3× XLA's with moving scatterers in many groups and Doppler bands."""
     options = (dict(azimuth_aliases=bands, max_azimuth_aliases=bands, azimuth_tolerance=0.0)
                if bands else dict(azimuth_aliases=0))
