@@ -102,14 +102,25 @@ def _grid_spectra(values, offset, n_x, taps):
     return engine.grid_dtft(spectrum, taps)
 
 
-def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, dtype):
+def _direct_sum(weights, azimuths, ranges, x0, xi, kappa, dtype, held=None):
     """(n_x, n_c) Σ_j w_j e^{−jξ (x_j − x0)} e^{−jκ r_j} for points, with ξ and κ given per
     (ξ, η) cell, in the complex ``dtype`` (phases formed in float64, reduced before the
     phasor: ``reduced_phasor``), one elementwise pass per chunk of points
-    (:func:`._fourier_engine.sum_of_terms`)."""
+    (:func:`._fourier_engine.sum_of_terms`).
+
+    ``held = (offset, period)``: only the cells whose echo is recorded on the grid's
+    pulses, ``0 ≤ x_j − x0 + r_j·offset < period`` (``offset`` per cell: the stationary
+    pulse's distance from the scatterer's azimuth per metre of its range, [m/m]); the
+    rest would wrap around the circular grid (a moving scatterer's echo near its Doppler
+    horizon, :class:`HighSpeed`)."""
 
     def term(w, x, r):
-        return w.astype(dtype) * reduced_phasor(-(xi * (x - x0) + kappa * r), dtype)
+        value = w.astype(dtype) * reduced_phasor(-(xi * (x - x0) + kappa * r), dtype)
+        if held is None:
+            return value
+        offset, period = held
+        position = (x - x0) + r * offset
+        return jnp.where((position >= 0) & (position < period), value, 0)
 
     return engine.sum_of_terms(term, (weights, azimuths, ranges), kappa.shape, dtype)
 
@@ -293,15 +304,22 @@ class HighSpeed(AbstractStraightTrackSimulator):
             for v_r, v_a, data, ranges, where in groups:
                 # κ in float64 (it multiplies ranges in a phase); the amplitude and the
                 # pattern in the output's precision
-                kappa, amplitude, u = spectrum_terms(
-                    radar, xi_cells, k, v_r, v_a, self.stop_and_go, real_dtype=real)
+                kappa, amplitude, u, transmit = spectrum_terms(
+                    radar, xi_cells, k, v_r, v_a, self.stop_and_go, real_dtype=real,
+                    with_transmit=True)
                 if gridded:
                     summed, r_ref = engine.synthesize_grid(data, ranges, kappa)
                     alias = jnp.round((xi_cells - xi[None, :]) * dx / _TWO_PI)
                     summed = summed * reduced_phasor(
                         -(_TWO_PI * alias * where + kappa * r_ref), work)
                 else:
-                    summed = _direct_sum(data, where, ranges, x0, xi_cells, kappa, work)
+                    # a moving scatterer's echo near its Doppler horizon (inside the
+                    # synthesised bands) is recorded ever farther away: the cells whose
+                    # pulse lies beyond the grid are left out rather than wrapped in
+                    held = ((radar.velocity * transmit, n_x * dx) if (v_r, v_a) != (0.0, 0.0)
+                            else None)
+                    summed = _direct_sum(data, where, ranges, x0, xi_cells, kappa, work,
+                                         held)
                 acc = acc + summed * (amplitude * radar.pattern(u)).astype(work)
             return jnp.where(keep, acc, 0.0)
 

@@ -14,7 +14,7 @@ _TWO_PI = 2 * jnp.pi
 
 
 def spectrum_terms(radar, xi, k, velocity_range, velocity_azimuth, stop_and_go=False,
-                   real_dtype=None):
+                   real_dtype=None, with_transmit=False):
     """Per-(ξ, k) factors of one velocity group (module docstring).
 
     Args:
@@ -31,7 +31,9 @@ def spectrum_terms(radar, xi, k, velocity_range, velocity_azimuth, stop_and_go=F
     Returns:
         ``(kappa_rel, amplitude, u)``: ``κ − 4π/λ`` [rad/m] (the range-line phase per metre,
         azimuth shift included), ``A / √r`` [complex, per √m] and the pattern argument at
-        the stationary point.
+        the stationary point; ``with_transmit``: and ``s / r`` [s/m], the stationary
+        transmit time from the crossing of the scatterer's azimuth per metre of ``r``
+        (the pulse that records the cell's echo is at ``x' = x + v s``).
     """
     v = radar.velocity
     v_r, v_a = velocity_range, velocity_azimuth
@@ -66,4 +68,6 @@ def spectrum_terms(radar, xi, k, velocity_range, velocity_azimuth, stop_and_go=F
     along = (v - v_a) * middle / (1 + v_r * middle)  # (x_A − x_P) / (current range)
     t = jnp.asarray(jnp.tan(radar.squint), real)
     u = jnp.asarray(radar.antenna_length / radar.wavelength, real) * (along + t) / (1 - along * t)
+    if with_transmit:
+        return kappa_rel, amplitude, u, transmit
     return kappa_rel, amplitude, u
