@@ -274,7 +274,8 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
             bands += 1
     lower, upper = band_edges(bands)
     in_bands = np.clip(upper - lower, 0.0, None)
-    in_window = weight * per_scatterer * _chirp_share(radar, acquisition, x, r, (w0, w1))
+    in_window = weight * per_scatterer * _chirp_share(radar, acquisition, x, r, (w0, w1),
+                                                      moving)
     window_energy = float(np.sum(in_window))
     synthesised = (float(np.sum(weight * in_bands)) / window_energy if window_energy > 0
                    else 1.0)
@@ -452,12 +453,20 @@ def _moving_offsets(radar, r, moving, xi):
     return v * r * tau / (v - v_a - v_r * tau)
 
 
-def _chirp_share(radar, acquisition, x, r, window):
+def _chirp_share(radar, acquisition, x, r, window, moving=None):
     """The share of each scatterer's chirp ``R ± cτ/4`` the range window holds, R its
-    slant range at the recorded pulse nearest its beam centre ``x' = x − r tan φ_d``."""
+    slant range at the recorded pulse nearest its beam centre ``x' = x − r tan φ_d``; a
+    moving one (``moving``, :func:`_velocities`) where it is at each pulse, at offset
+    ``b s`` and range ``r + c s`` (``s = x' − x``, ``c = v_r/v``, ``b = 1 − v_a/v``), on
+    the beam centre at ``s = −r tan φ_d/(b + c tan φ_d)``."""
     w0, w1 = window
-    pulse = np.clip(x - r * math.tan(float(np.asarray(radar.squint))), w0, w1)
-    slant = np.sqrt(r**2 + (pulse - x) ** 2)
+    tan = math.tan(float(np.asarray(radar.squint)))
+    c, b = (0.0, 1.0) if moving is None else (moving[0] / float(radar.velocity),
+                                              1 - moving[1] / float(radar.velocity))
+    with np.errstate(divide="ignore", invalid="ignore"):  # b + c tan φ_d → 0: no crossing
+        crossing = np.nan_to_num(x - r * tan / (b + c * tan))
+    offset = np.clip(crossing, w0, w1) - x
+    slant = np.hypot(r + c * offset, b * offset)
     half = float(radar.pulse_half_length)
     near = float(acquisition.near_range)
     far = near + (acquisition.num_range - 1) * float(radar.range_spacing)
