@@ -409,14 +409,22 @@ def _velocities(scene, shape):
     return (v_r, v_a, moving) if moving.any() else None
 
 
+def _seen_rates(radar, moving):
+    """``(c, b) = (v_r/v, 1 − v_a/v)``: a scatterer at ``a = x' − x`` from the pulse is seen
+    at offset ``b a`` and range ``r + c a`` (still: ``(0, 1)``)."""
+    if moving is None:
+        return 0.0, 1.0
+    v = float(radar.velocity)
+    return moving[0] / v, 1 - moving[1] / v
+
+
 def _seen_from(radar, along, r, moving):
     """``(a', r')`` at which the exact model sees a scatterer ``along = x' − x`` from the
     pulse: ``(a (1 − v_a/v), r + v_r a/v)`` when it moves."""
     if moving is None:
         return along, r
-    v_r, v_a, _ = moving
-    v = float(radar.velocity)
-    return along * (1 - v_a / v), r + v_r * along / v
+    c, b = _seen_rates(radar, moving)
+    return along * b, r + c * along
 
 
 def _band_wavenumbers(radar, bands):
@@ -461,12 +469,11 @@ def _chirp_share(radar, acquisition, x, r, window, moving=None):
     the beam centre at ``s = −r tan φ_d/(b + c tan φ_d)``."""
     w0, w1 = window
     tan = math.tan(float(np.asarray(radar.squint)))
-    c, b = (0.0, 1.0) if moving is None else (moving[0] / float(radar.velocity),
-                                              1 - moving[1] / float(radar.velocity))
+    c, b = _seen_rates(radar, moving)
     with np.errstate(divide="ignore", invalid="ignore"):  # b + c tan φ_d → 0: no crossing
         crossing = np.nan_to_num(x - r * tan / (b + c * tan))
     offset = np.clip(crossing, w0, w1) - x
-    slant = np.hypot(r + c * offset, b * offset)
+    slant = np.hypot(*_seen_from(radar, offset, r, moving))
     half = float(radar.pulse_half_length)
     near = float(acquisition.near_range)
     far = near + (acquisition.num_range - 1) * float(radar.range_spacing)
@@ -659,12 +666,11 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     # clipped to the interval, most at an end. (Its non-stop-and-go delay moves the echo
     # by (v_eq²|a|/v + r|v_r|)/c: 0.2 m at 7.5 km/s, within the two samples' margin.)
     a_ends = np.stack([np.clip(lo - x, w0 - x, w1 - x), np.clip(hi - x, w0 - x, w1 - x)])
-    c, b = (0.0, 1.0) if moving is None else (moving[0] / float(radar.velocity),
-                                              1 - moving[1] / float(radar.velocity))
+    c, b = _seen_rates(radar, moving)
     vertex = np.clip(-r * c / (c**2 + b**2), a_ends[0], a_ends[1])
     reach = float(radar.pulse_half_length) + motion_margin + 2 * dr
-    rho0 = np.hypot(r + c * vertex, b * vertex) - reach
-    rho1 = np.max(np.hypot(r + c * a_ends, b * a_ends), axis=0) + reach
+    rho0 = np.hypot(*_seen_from(radar, vertex, r, moving)) - reach
+    rho1 = np.max(np.hypot(*_seen_from(radar, a_ends, r, moving)), axis=0) + reach
     kept = reaches & (rho1 >= near) & (rho0 <= far)
     included = kept
     if is_traced(scene.azimuth):  # sized for scatterers anywhere in the window: all kept
