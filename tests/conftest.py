@@ -14,6 +14,14 @@ import pathlib
 _COMPILATION_CACHE = pathlib.Path(__file__).resolve().parent.parent / ".pytest_cache" / "jax"
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(_COMPILATION_CACHE))
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
+
+
+def _default_xla_flag(name, value):
+    """Add ``--name=value`` to XLA_FLAGS unless XLA_FLAGS already names the option."""
+    if name not in os.environ.get("XLA_FLAGS", ""):
+        os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + f" --{name}={value}").strip()
+
+
 # XLA's CPU backend compiles the suite's programs with its elemental emitters instead of
 # its fusion emitters (the default). Compiling is most of the suite's time: a clean run of
 # test_fidelity compiled 87 simulator programs in 149 s of its 258 s, one per drawn case.
@@ -25,9 +33,7 @@ os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
 # it compiles as fast and runs the NUFFT model 1.5x faster (1.53 against 2.23 s). The
 # subprocesses (notebooks, README commands, forced devices) inherit the setting; an
 # XLA_FLAGS that names the option keeps its own choice.
-if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
-    os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
-                               + " --xla_cpu_use_fusion_emitters=false").strip()
+_default_xla_flag("xla_cpu_use_fusion_emitters", "false")
 # Each test process runs XLA's programs on one thread (Eigen's pool off). The suite runs
 # two processes on two cores, each mostly compiling (one thread); a program run on a pool
 # of two threads beside the other process's compilation oversubscribed the cores. Two
@@ -36,9 +42,7 @@ if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
 # test_gradients_all, test_export, test_nufft, test_high_speed and test_squint_fourier
 # 142 s instead of 158 s (CPU 261 s instead of 292 s); the same tests passing. Users keep
 # XLA's default.
-if "xla_cpu_multi_thread_eigen" not in os.environ.get("XLA_FLAGS", ""):
-    os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
-                               + " --xla_cpu_multi_thread_eigen=false").strip()
+_default_xla_flag("xla_cpu_multi_thread_eigen", "false")
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
