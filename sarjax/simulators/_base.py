@@ -139,7 +139,7 @@ class AbstractSimulator(eqx.Module):
         found += self.window_budgets(radar, scene, motion, acquisition, dtype)
         if not self.exact:  # synthesised from the chirp's spectrum: its ends ring
             found += _budgets.chirp_edge_budget(radar, scene, motion, acquisition,
-                                                getattr(self, "range_aliases", 0))
+                                                getattr(self, "range_aliases", 0), outside)
         approximations, pointing_ratio = self.approximation_budgets(
             radar, scene, motion, acquisition)
         found = tuple(approximations) + tuple(found)

@@ -349,7 +349,45 @@ def chirp_edge_error(chirp_rate, half_length, range_spacing, aliases, steps=64):
     return np.where(offset < 0, error, 0.0).sum(-1), np.where(offset >= 0, error, 0.0).sum(-1)
 
 
-def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budget, ...]:
+@functools.lru_cache(maxsize=16)
+def chirp_edge_coherence(chirp_rate, half_length, range_spacing, aliases, steps=16,
+                         reach=1):
+    """How alike the chirp ends' errors of two echoes are, as a function of the distance
+    between them: ``ρ(s) = ⟨Σₙ e(n; δ + s) e*(n; δ)⟩_δ / ⟨Σₙ |e(n; δ)|²⟩_δ``, ``e(n; δ)``
+    the error waveform (:func:`chirp_edge_error`'s ``model − sampled``, both ends) of an
+    echo centred ``δ`` samples past a sample, averaged over δ ∈ [0, 1), at shifts
+    ``s = k / steps`` samples, ``|s| ≤ reach``. It holds the chirp's phase at its ends
+    (``2πB ΔR/c`` between the two) and the residual's change with its sub-sample
+    position, which decorrelates it within a fraction of a sample: the two errors add as
+    powers beyond ``reach``.
+
+    Returns:
+        (shifts [samples] (2·reach·steps + 1,), ρ complex (same)).
+    """
+    from ._fourier_engine import chirp_spectrum_values
+
+    b, half, dr = chirp_rate, half_length, range_spacing
+    n = 1 << int(math.ceil(math.log2(2 * half / dr + 256)))
+    eta = 2 * np.pi * np.fft.fftfreq(n, dr)
+    positions = np.arange(-reach * steps, (reach + 1) * steps) / steps
+    centre = (n // 2 + positions[:, None]) * dr
+    k = eta[None, :] + 2 * np.pi * np.arange(-aliases, aliases + 1)[:, None] / dr
+    spectrum = np.zeros((positions.size, n), complex)
+    for k_m, c_m in zip(k, chirp_spectrum_values(b, half, k), strict=True):
+        spectrum += c_m * np.exp(-1j * k_m * centre)
+    offset = np.arange(n) * dr - centre
+    error = (np.fft.ifft(spectrum / dr, axis=-1)
+             - np.where(np.abs(offset) < half, np.exp(-1j * b * offset**2), 0.0))
+    base = error[reach * steps:(reach + 1) * steps]  # δ ∈ [0, 1)
+    energy = np.mean(np.sum(np.abs(base) ** 2, axis=-1))
+    shifts = np.arange(-reach * steps, reach * steps + 1)
+    rho = np.array([np.mean(np.sum(error[reach * steps + t:(reach + 1) * steps + t]
+                                   * np.conj(base), axis=-1)) for t in shifts]) / energy
+    return shifts / steps, rho
+
+
+def chirp_edge_budget(radar, scene, motion, acquisition, aliases, outside=None
+                      ) -> tuple[Budget, ...]:
     """``chirp_edges``: the raw error the hard-edged chirp's ends leave in a Fourier-domain
     synthesis (:func:`chirp_edge_error`), relative to the recorded echo energy: over the
     window's pulses (at most 128) and the scene's scatterers (:func:`scene_samples`),
@@ -364,6 +402,11 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
     5 µs chirp: −24 dB). Predicted within 1 dB of the measured raw NMSE against the exact
     model (chirps of 1–5 µs, squint 0–30°, whole, cut and end-only echoes;
     ``tests/test_fidelity.py``). Threshold −26 dB. Empty for traced inputs.
+
+    Point targets within a few resolution cells of one another interfere: where their
+    echoes cancel and their ends' errors do not, the ratio is multiplied by
+    :func:`interference_factor` (``outside``: the scatterers whose echoes miss the
+    window, left out of it).
     """
     positions = scene_positions(scene)
     values = [_concrete(v) for v in (radar.chirp_rate, radar.pulse_half_length,
@@ -403,10 +446,107 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases) -> tuple[Budge
         along(dz[pulses]), pulse_weight, across(xs), across(rs), across(hs),
         sample_weight, v_r, v_a, lead, trail, constants))
     value = error / recorded if recorded > 0 else 0.0
-    return (Budget("chirp_edges", value, CHIRP_EDGE_THRESHOLD,
+    interference = (interference_factor(radar, scene, (b, half, dr, int(aliases)), outside)
+                    if value > 0 else 1.0)
+    return (Budget("chirp_edges", value * interference, CHIRP_EDGE_THRESHOLD,
                    f"raw error of the hard-edged chirp's recorded ends, relative to the "
                    f"recorded echo (Gibbs residual of {2 * int(aliases) + 1} summed range "
-                   "spectra)", error=NMSE),)
+                   "spectra" + (f"; × {interference:.3g}: targets within a resolution cell "
+                                "whose echoes cancel and whose ends' errors do not"
+                                if interference > 1.0 else "") + ")", error=NMSE),)
+
+
+# point targets closer than this many resolution cells (range c/2B, azimuth L/2) are
+# paired by interference_factor: the echoes' correlation sinc(2BΔR/c) is below 0.08 beyond
+_PAIR_CELLS = 4.0
+# pulses over the beam (u ∈ [−2.5, 2.5]: the main lobe and its first sidelobes) at which
+# a pair's correlation is averaged, weighted by the echo's energy W²(u)²
+_PAIR_LOOKS = 41
+# beyond this many pairs (a dense point cloud, random phases on average) the scene counts
+# as incoherent, as a grid's cells do
+_PAIR_LIMIT = 200_000
+
+
+def interference_factor(radar, scene, chirp, outside=None) -> float:
+    """How much larger the chirp ends' error is, relative to the echo, where point targets
+    within a few resolution cells of one another interfere (≥ 1; 1 for a grid, traced
+    inputs or targets apart). ``chirp``: (b, cτ/4, Δr, range aliases) as
+    :func:`chirp_edge_coherence` takes them.
+
+    The budget adds the targets' errors and echoes as powers. Two targets a fraction of a
+    cell apart in range with opposite phases cancel each other's echo, but not their
+    ends' errors, which decorrelate within a fraction of a sample
+    (:func:`chirp_edge_coherence`): 0.69 m apart at broadside (0.23 of a sample), the echo
+    fell 10.2 dB below the sum of their powers and every Fourier method gave −20.3 dB
+    against the exact model (−30.0 dB for one target) with no budget violated. For each
+    pair of targets with the same velocity closer than :data:`_PAIR_CELLS` cells, the
+    correlation of their echoes ``⟨sinc(2BΔR/c) e^{−jk₀ΔR}⟩`` and of their errors
+    ``⟨ρ(ΔR/Δr) e^{−jk₀ΔR}⟩`` are averaged over the pulses of the beam (ΔR the difference
+    of their ranges at each pulse, weighted by the echo's energy ``W²(u)²``). The factor
+    is the ratio of the errors' energy to the echoes', each over the sum of their powers
+    (``Σ|γ|² + 2 Re Σ γᵢγⱼ* C``), over the targets whose echo reaches the window
+    (``outside``: those that miss it). Against the measured raw NMSE of two targets of
+    opposite phases (fourier_2d, 5 µs chirp, 50 MHz): 0.69 m in range at broadside,
+    11.4 dB predicted, 9.7 dB measured; 0.3 m, 6.2 against 2.5 dB; at 20° squint, 0.1 m
+    15.1 against 15.6 dB and 0.3 m 9.7 against 10.2 dB; 1 cm and 0.2 m in azimuth (their
+    errors cancel with their echoes) 1.5 and 0.1 dB against 0.1 and 0 dB. More than
+    :data:`_PAIR_LIMIT` pairs: 1."""
+    if not isinstance(scene, PointTargets) or np.size(scene.azimuth) < 2:
+        return 1.0
+    values = [_concrete(getattr(scene, name)) for name in
+              ("azimuth", "range", "reflectivity", "velocity_range", "velocity_azimuth")]
+    constants = [_concrete(v) for v in (radar.bandwidth, radar.wavenumber, radar.wavelength,
+                                        radar.antenna_length, radar.squint)]
+    if any(v is None for v in values + constants):
+        return 1.0
+    x, r, gamma, v_r, v_a = (np.ravel(np.broadcast_to(v, np.shape(scene.azimuth)))
+                             for v in values)
+    keep = np.ones(x.size, bool) if outside is None else ~np.ravel(outside)
+    x, r, gamma, v_r, v_a = (v[keep] for v in (x, r, gamma, v_r, v_a))
+    bandwidth, k0, lam, length, squint = (float(v) for v in constants)
+    if x.size < 2 or bandwidth <= 0:
+        return 1.0
+    cells_r = _PAIR_CELLS * SPEED_OF_LIGHT / (2 * bandwidth)
+    cells_x = _PAIR_CELLS * length / 2
+    order = np.argsort(x, kind="stable")
+    x, r, gamma, v_r, v_a = (v[order] for v in (x, r, gamma, v_r, v_a))
+    # every pair (i, j > i) within cells_x along track, then within cells_r in range
+    ends = np.searchsorted(x, x + cells_x, side="right")
+    counts = ends - np.arange(x.size) - 1
+    if counts.sum() == 0 or counts.sum() > _PAIR_LIMIT:
+        return 1.0
+    i = np.repeat(np.arange(x.size), counts)
+    j = i + 1 + np.arange(i.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    near = (np.abs(r[i] - r[j]) <= cells_r + abs(x[i] - x[j]) * abs(math.sin(squint))) & (
+        v_r[i] == v_r[j]) & (v_a[i] == v_a[j])
+    i, j = i[near], j[near]
+    if i.size == 0:
+        return 1.0
+    # the pulses over each pair's beam: a = x' − x̄ at the beam coordinates u
+    u = np.linspace(-2.5, 2.5, _PAIR_LOOKS)
+    w = np.abs(np.asarray(antenna.evaluate(radar.pattern, jnp.asarray(u)), float)) ** 2
+    sine_u, tan_d = u * lam / length, math.tan(squint)
+    r_mean, x_mean = (r[i] + r[j]) / 2, (x[i] + x[j]) / 2
+    x_p = x_mean[:, None] + r_mean[:, None] * (sine_u - tan_d) / (1 + sine_u * tan_d)
+    range_i = np.hypot(r[i][:, None], x_p - x[i][:, None])
+    range_j = np.hypot(r[j][:, None], x_p - x[j][:, None])
+    # R_i − R_j from the difference of squares (no cancellation of kilometres)
+    delta = ((r[i] - r[j]) * (r[i] + r[j]))[:, None] + (x[j] - x[i])[:, None] * (
+        2 * x_p - (x[i] + x[j])[:, None])
+    delta = delta / (range_i + range_j)
+    envelope = w * np.sinc(2 * bandwidth * delta / SPEED_OF_LIGHT) * np.exp(-1j * k0 * delta)
+    echo = envelope.sum(axis=1) / w.sum()
+    # the ends' errors: ρ(ΔR / Δr) (chirp_edge_coherence) in place of the envelope's
+    shifts, rho = chirp_edge_coherence(*chirp)
+    position = delta / chirp[2]
+    alike = np.interp(position, shifts, rho.real, left=0.0, right=0.0) + 1j * np.interp(
+        position, shifts, rho.imag, left=0.0, right=0.0)
+    edge = (w * alike * np.exp(-1j * k0 * delta)).sum(axis=1) / w.sum()
+    cross = gamma[i] * np.conj(gamma[j])
+    powers = float(np.sum(np.abs(gamma) ** 2))
+    echo_energy = powers + 2 * float(np.sum(np.real(cross * echo)))
+    edge_energy = powers + 2 * float(np.sum(np.real(cross * edge)))
+    return max(1.0, edge_energy / max(echo_energy, 1e-12 * powers))
 
 
 # pulses and scatterers of the chirp-edge estimate (at most): an energy-weighted mean over
