@@ -169,6 +169,11 @@ def test_exact_backprojection_of_complex64_raw_data():
 from hypothesis import example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+try:
+    from _strategies import beyond_the_simplest
+except ImportError:
+    from tests._strategies import beyond_the_simplest
+
 _SQUINT_SIZE = dict(num_pulses=512, num_range=128)
 _SQUINT_AZIMUTH = (np.arange(512) - 256) * float(RADAR.azimuth_spacing)
 
@@ -212,7 +217,8 @@ def _omega_k_against_exact(squint_deg, dx, dr, weighting, motion=None):
 
 
 @settings(max_examples=3, deadline=None)
-@given(squint=st.floats(-70.0, 70.0), dx=st.floats(-30.0, 30.0), dr=st.floats(-40.0, 40.0),
+@given(squint=beyond_the_simplest(st.floats(-70.0, 70.0)), dx=st.floats(-30.0, 30.0),
+       dr=st.floats(-40.0, 40.0),
        weighting=st.sampled_from(["uniform", "antenna"]))
 def test_omega_k_any_squint_matches_exact_backprojection(squint, dx, dr, weighting):
     """A squinted point target focuses with ω-k where the exact back-projection puts it:
@@ -258,7 +264,7 @@ def _direct_matched_filter(radar, raw, x, ranges):
 
 
 @settings(max_examples=3, deadline=None)
-@given(squint=st.floats(-45.0, 45.0),
+@given(squint=beyond_the_simplest(st.floats(-45.0, 45.0)),
        v=st.sampled_from([-1.0, 1.0]).flatmap(lambda side: st.floats(0.8, 1.3).map(
            lambda depth: side * depth)))  # the edge band: at, inside or beyond either end
 @example(squint=-11.3, v=1.0)  # was 39 % of the peak from the matched filter
@@ -307,7 +313,7 @@ def _check_short_window_of_a_long_chirp(squint, v):
 
 
 @settings(max_examples=1, deadline=None)  # with the example: 2 cases in CI (slow tier: 8)
-@given(squint=st.floats(-8.0, 8.0), v=st.floats(-6.0, 6.0))
+@given(squint=beyond_the_simplest(st.floats(-8.0, 8.0)), v=st.floats(-6.0, 6.0))
 @example(squint=5.0, v=0.0)  # was 8.7 % of the peak from the matched filter, now 1.5e-6
 def test_exact_backprojection_of_a_short_window_of_a_long_chirp(squint, v):
     """A 128-sample window of the high-speed preset records 0.4 % of its 28 800-sample
@@ -380,7 +386,7 @@ _RANGE_EDGE = st.sampled_from([-1.0, 1.0]).flatmap(
 
 
 @settings(max_examples=2, deadline=None)
-@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_RANGE_PLACES,
+@given(squint=beyond_the_simplest(st.floats(-70.0, 70.0)), u=_PLACES, v=_RANGE_PLACES,
        weighting=st.sampled_from(["uniform", "antenna"]))
 def test_omega_k_whole_image_matches_exact_backprojection(squint, u, v, weighting):
     """Over the whole image, not only about the peak, and for a target anywhere in
@@ -395,7 +401,7 @@ def test_omega_k_whole_image_matches_exact_backprojection(squint, u, v, weightin
 
 
 @settings(max_examples=1, deadline=None)  # with the example: 2 cases, 10 s (slow tier: 12)
-@given(squint=st.floats(-70.0, 70.0), u=_PLACES, v=_RANGE_EDGE,
+@given(squint=beyond_the_simplest(st.floats(-70.0, 70.0)), u=_PLACES, v=_RANGE_EDGE,
        weighting=st.sampled_from(["uniform", "antenna"]))
 @example(squint=-11.3, u=0.0, v=-1.0, weighting="uniform")  # was −13 dB
 def test_omega_k_whole_image_at_the_range_edge(squint, u, v, weighting):
@@ -457,7 +463,7 @@ def _check_radiometry(squint, u, weighting):
 
 
 @settings(max_examples=1, deadline=None)  # with the example: 2 cases in CI (slow tier: 10)
-@given(squint=st.floats(-70.0, 70.0), u=st.floats(-1.0, 1.0),
+@given(squint=beyond_the_simplest(st.floats(-70.0, 70.0)), u=st.floats(-1.0, 1.0),
        weighting=st.sampled_from(["uniform", "antenna"]))
 @example(squint=10.0, u=0.0, weighting="antenna")  # was 1.8 % low at v = 0.9, high at −0.9
 def test_omega_k_has_the_matched_filters_amplitude_across_range(squint, u, weighting):
@@ -541,7 +547,8 @@ def _circular_error(squint_deg, u, v, weighting, tiles=9):
 
 
 @settings(max_examples=1, deadline=None)  # with the example: 2 cases in CI (slow tier: 8)
-@given(squint=st.floats(-45.0, 45.0), u=st.floats(-1.3, 1.3), v=st.floats(-0.8, 0.8),
+@given(squint=beyond_the_simplest(st.floats(-45.0, 45.0)), u=st.floats(-1.3, 1.3),
+       v=st.floats(-0.8, 0.8),
        weighting=st.sampled_from(["uniform", "antenna"]))
 @example(squint=-5.9, u=1.23, v=0.64, weighting="uniform")  # the worst of 8 draws
 def test_circular_azimuth_focuses_periodic_data(squint, u, v, weighting):
@@ -671,7 +678,8 @@ def _check_moco_budget(squint, rms, seed, dx, dr):
 
 
 @settings(max_examples=2, deadline=None)
-@given(squint=st.floats(-40.0, 40.0), rms=st.sampled_from([0.005, 0.02, 0.05, 0.1, 0.3]),
+@given(squint=beyond_the_simplest(st.floats(-40.0, 40.0)),
+       rms=st.sampled_from([0.005, 0.02, 0.05, 0.1, 0.3]),
        seed=st.integers(0, 50), dx=st.floats(-20.0, 20.0), dr=st.floats(-30.0, 30.0))
 def test_omega_k_moco_without_warning_is_accurate(squint, rms, seed, dx, dr):
     """ω-k's motion compensation leaves a phase that grows with the deviation and the
