@@ -138,8 +138,9 @@ class AbstractSimulator(eqx.Module):
                                                   outside))
         found += self.window_budgets(radar, scene, motion, acquisition, dtype)
         if not self.exact:  # synthesised from the chirp's spectrum: its ends ring
-            found += _budgets.chirp_edge_budget(radar, scene, motion, acquisition,
-                                                getattr(self, "range_aliases", 0), outside)
+            found += _budgets.chirp_edge_budget(
+                radar, scene, motion, acquisition, getattr(self, "range_aliases", 0),
+                outside, getattr(self, "alias_tolerance", None))
         approximations, pointing_ratio = self.approximation_budgets(
             radar, scene, motion, acquisition)
         found = tuple(approximations) + tuple(found)
