@@ -369,7 +369,7 @@ def chirp_edge_error(chirp_rate, half_length, range_spacing, aliases, tolerance=
     energy, but all of it at the ends (5 µs at 50 MHz, one alias, 10^-4.5: the mean
     residual 0.037 → 0.045; an echo whose window records only its last 13 samples,
     measured −24.0 dB against the exact model, predicted −25.8 dB from every column,
-    −24.1 dB from the columns kept). Computed here by the same sum for one echo at
+    −23.9 dB from the columns kept). Computed here by the same sum for one echo at
     ``steps`` sub-sample positions δ ∈ [0, 1) of its centre.
 
     Returns:
