@@ -241,6 +241,9 @@ def seen_moving_scenes(draw):
 # still target of its (x, r) is: the grid's range support, taken as the still target's
 # (√(r² + a²), beyond the window), left it out: no data at all, no warning
 @example(case=(30.0, 3872.0, 4693.0, 0.0, 0.0, 30.0))
+# 30 m/s along track, cut by the window's end with the beam on it: the grid held a still
+# target's Fresnel zones beyond its band edges, its echo's are 1.43× longer (−24.9 dB)
+@example(case=(0.0, 174.0, 4757.0, 0.0, 1.0, 30.0))
 def test_no_warning_means_accurate_moving_where_seen(case):
     """``high_speed`` with a moving target placed where it is seen (:func:`seen_moving_scenes`)."""
     _check("high_speed", case)
