@@ -320,7 +320,7 @@ def _synthesised_error(chirp_rate, half_length, range_spacing, aliases, toleranc
     alias's columns from the band edge it enters until the energy left out is at most
     ``tolerance`` of the main band's (``_fourier_engine.alias_column_count``'s rule, on
     this finer grid; None: every column), less the sampled hard-edged chirp."""
-    from ._fourier_engine import chirp_spectrum_values
+    from ._fourier_engine import alias_columns_kept, chirp_spectrum_values
 
     b, half, dr = chirp_rate, half_length, range_spacing
     n = 1 << int(math.ceil(math.log2(2 * half / dr + 256)))
@@ -339,10 +339,7 @@ def _synthesised_error(chirp_rate, half_length, range_spacing, aliases, toleranc
             place = rank if m > 0 else n - 1 - rank
             energy = np.zeros(n)
             energy[place] = np.abs(spectra[row]) ** 2
-            left_out = energy.sum() - np.cumsum(energy)
-            enough = np.flatnonzero(left_out <= tolerance * main)
-            count = 0 if energy.sum() <= tolerance * main else (
-                int(enough[0]) + 1 if enough.size else n)
+            count = alias_columns_kept(energy, main, tolerance)
             spectra[row] = np.where(place < count, spectra[row], 0.0)
     spectrum = np.zeros((centre.shape[0], n), complex)
     for k_m, c_m in zip(k, spectra, strict=True):

@@ -651,11 +651,17 @@ def _alias_column_count(chirp_rate, half_length, range_spacing, n_r, tolerance):
     step = 2 * np.pi / range_spacing
     both = chirp_spectrum_values(chirp_rate, half_length, np.stack([eta, eta + step]))
     main, alias = np.abs(both) ** 2
+    return alias_columns_kept(alias, main.sum(), tolerance)
+
+
+def alias_columns_kept(alias, main, tolerance):
+    """How many of an alias's columns, ``alias`` (their energies, from the band edge it
+    enters), leave out at most ``tolerance`` of the main band's energy ``main``."""
     left_out = alias.sum() - np.cumsum(alias)  # energy beyond the first k + 1 columns
-    if alias.sum() <= tolerance * main.sum():
+    if alias.sum() <= tolerance * main:
         return 0
-    enough = np.flatnonzero(left_out <= tolerance * main.sum())
-    return int(enough[0] + 1) if enough.size else int(n_r)  # else: every column
+    enough = np.flatnonzero(left_out <= tolerance * main)
+    return int(enough[0] + 1) if enough.size else int(alias.size)  # else: every column
 
 
 
