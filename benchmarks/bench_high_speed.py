@@ -107,15 +107,13 @@ def _scene(name):
 def working_grid(cfg, scene_name="mixed"):
     """(n_x, n_r, velocity groups) of the padded grid ``high_speed`` works on."""
     import sarjax as sj
-    from sarjax._numerics.interpolation import next_fast_len
 
     radar = _radar(cfg)
     acq = sj.Acquisition(num_pulses=cfg["pulses"], num_range=cfg["range"],
                          near_range=radar.near_range, azimuth_center=0.0)
     sim = sj.simulators.HighSpeed(azimuth_padding=cfg["padding"]).prepare(
         radar, _scene(scene_name), acq)
-    return (next_fast_len(cfg["pulses"] + 2 * sim.azimuth_pad), sim.range_fft_size,
-            len(sim.groups))
+    return sim.azimuth_size, sim.range_fft_size, len(sim.groups)
 
 
 def child(args):

@@ -540,7 +540,9 @@ class WorkGrid(NamedTuple):
     """The padded grid a Fourier-domain simulation runs on (eager, NumPy).
 
     Attributes:
-        lead: pulses synthesised before the first acquired pulse (the crop offset).
+        lead: pulses synthesised before the first acquired pulse (the crop offset); as
+            many after it, up to ``n_x``'s rounding, but for a scene with moving
+            scatterers (high_speed), whose two sides are sized apart.
         n_x, n_r: azimuth and range FFT lengths.
         included: bool, broadcast to the scene (``(n_s,)`` or ``(n_az, n_lines)``): the
             scatterers whose echo reaches the window (within the support); the others
@@ -686,20 +688,40 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     if support is not None and support.hold is not None:
         # and keeps the images of its bands' cut from ringing into the window
         span = np.maximum(span, np.maximum(w1 - support.hold[0], support.hold[1] - w0))
+    coarse = lambda pulses: -(-pulses // 128) * 128  # noqa: E731  (new target positions
+    # rarely recompile)
     if azimuth_padding is None:
         need = np.max(np.where(kept, span, 0.0), initial=0.0)
-        pad = max(0, math.ceil((need / dx + 1 - n) / 2))
+        pad = coarse(max(0, math.ceil((need / dx + 1 - n) / 2)))
+        lead = trail = pad
+        if moving is not None and (kept & moving[2]).any():
+            # high_speed leaves out a moving scatterer's cells whose stationary pulse lies
+            # off the grid [x₀, x₀ + P) (its echo near the Doppler horizon): the grid holds
+            # such a scatterer's support itself, on each side, not by wrapping it past the
+            # window. A support held by wrapping only was cut where the grid ends, inside
+            # the echo, and the cut rang into the window (30 m/s along track, seen 125 m
+            # past the window's end: −25.0 dB against the exact model, no warning). The
+            # sides are sized apart: a moving target is often seen far to one side
+            held = kept & moving[2]
+            sides = [coarse(max(0, math.ceil(float(np.max(np.where(held, d, 0.0))) / dx)))
+                     for d in (w0 - lo, hi - w1)]
+            total = max(2 * pad, sum(sides))
+            lead = max(sides[0], min(pad, total - sides[1]))
+            trail = total - lead
     else:
         extent = float(radar.footprint(r_max)) / math.cos(squint) ** 2
         if doppler_limited:
             extent = min(extent, r_max * xi_max / math.sqrt(max(k0**2 - xi_max**2, 1e-12)))
-        pad = math.ceil(azimuth_padding * extent / dx)
-    pad = -(-pad // 128) * 128  # coarse steps: new target positions rarely recompile
-    n_x = next_fast_len(n + 2 * pad)
+        pad = coarse(math.ceil(azimuth_padding * extent / dx))
+        lead = trail = pad
+    n_x = next_fast_len(n + lead + trail)
     period = n_x * dx
     holds = span < period
     if moving is not None:
-        holds &= ~(too_far & moving[2])
+        # each side of the grid, not only the period: high_speed leaves out the cells
+        # beyond its ends
+        beyond = (w0 - lo > lead * dx) | (hi - w1 > (n_x - n - lead) * dx)
+        holds &= ~((too_far | beyond) & moving[2])
     wrapped = float(np.mean(~holds[kept])) if kept.any() else 0.0
     wrapped_energy = 0.0
     if azimuth_padding is not None and kept.any() and wrapped > 0:
@@ -720,7 +742,7 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     n_r = next_fast_len(max(fixed, math.ceil(need_r / dr) + 2))
     # the scene's need over what one scatterer in the window needs
     own = n * dx + r_max * (math.tan(look[1]) - math.tan(look[0]))
-    return WorkGrid(pad, n_x, n_r, included, float(need) / own if azimuth_padding is None
+    return WorkGrid(lead, n_x, n_r, included, float(need) / own if azimuth_padding is None
                     else n_x * dx / own, wrapped, wrapped_energy)
 
 

@@ -62,7 +62,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._numerics.interpolation import next_fast_len
 from .._numerics.phasor import reduced_phasor, unit_phasor
 from ..scene import ReflectivityGrid
 from . import _extent as extent
@@ -130,13 +129,15 @@ class HighSpeedPlan(AbstractPlan):
 
     Attributes:
         groups: velocity groups ``((v_r, v_a, indices), ...)`` (indices None: a grid).
-        azimuth_pad, range_fft_size: the padded grid's sizes.
+        azimuth_pad, azimuth_size, range_fft_size: the padded grid: pulses before the
+            window, the azimuth and range FFT lengths.
         bands: Doppler alias bands synthesised on each side of the principal one.
         alias_columns: columns per range alias (None: every column).
     """
 
     groups: tuple = eqx.field(static=True)
     azimuth_pad: int = eqx.field(static=True)
+    azimuth_size: int = eqx.field(static=True)
     range_fft_size: int = eqx.field(static=True)
     included: jnp.ndarray
     bands: int = eqx.field(static=True, default=0)
@@ -207,7 +208,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
             engine.check_grid_scene(scene, radar)
         groups = velocity_groups(radar, scene)
         support, grid = self.grid(radar, scene, motion, acquisition)
-        return HighSpeedPlan(groups, grid.lead, grid.n_r,
+        return HighSpeedPlan(groups, grid.lead, grid.n_x, grid.n_r,
                              jnp.asarray(grid.included, dtype=float), support.bands,
                              engine.alias_column_count(radar, grid.n_r, self.alias_tolerance))
 
@@ -220,7 +221,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
         fitted to XLA's memory analysis over points and grids, 1–16 groups, 0 and 2
         Doppler bands, 64 and 256 columns a chunk, both dtypes: the estimate is
         1.17–2.20× XLA's peak there."""
-        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        n_x = plan.azimuth_size
         chunk = min(max(16, self.column_chunk // shards), -(-plan.range_fft_size // shards))
         item = jnp.dtype(dtype).itemsize
         groups = len(plan.groups)
@@ -234,7 +235,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
     def cost(self, plan, radar, scene, acquisition, dtype) -> Cost:
         """≈ 2 + 0.6 per velocity group FFT2-equivalents of the padded grid per Doppler
         band (benchmarks/RESULTS.md, seed 004 Table 1: 2.5 for one group, 4.1 for four)."""
-        n_x = next_fast_len(acquisition.num_pulses + 2 * plan.azimuth_pad)
+        n_x = plan.azimuth_size
         steady = ((2 + 0.6 * len(plan.groups)) * 8e-9 * n_x * plan.range_fft_size
                   * (2 * plan.bands + 1))
         return Cost(compile=3.0, steady=steady)
@@ -250,8 +251,7 @@ class HighSpeed(AbstractStraightTrackSimulator):
 
     def _simulate(self, plan, radar, scene, acquisition, dtype):
         n_pulses, n_range = acquisition.num_pulses, acquisition.num_range
-        pad, n_r = plan.azimuth_pad, plan.range_fft_size
-        n_x = next_fast_len(n_pulses + 2 * pad)
+        pad, n_x, n_r = plan.azimuth_pad, plan.azimuth_size, plan.range_fft_size
         dx = radar.azimuth_spacing
         dr = radar.range_spacing
         k0 = radar.wavenumber
