@@ -259,11 +259,13 @@ def test_no_warning_means_accurate_moving_where_seen_many(case):
 @st.composite
 def grid_scenes(draw):
     """(squint [deg], grid (n_az, n_rg), centre (x, r) [m], range spacing in samples,
-    heights, reflectivity seed, (motion rms [m], pointing [λ/L])): a speckle
+    heights, reflectivity seed, (motion rms [m], pointing [λ/L]), phases): a
     ``ReflectivityGrid`` on the pulse spacing in azimuth (as the Fourier methods require)
     with 2–24 cells each way, range cells of one or two samples, flat at 0 or 100 m or
     uneven (0–20 m, 0–200 m at random), its centre inside, at the edge of, beyond or far
-    outside the window in azimuth and in range."""
+    outside the window in azimuth and in range; speckle, or a region of one phase or of a
+    phase ramp (whose echoes cancel over the region where the carrier's ramp across it
+    falls near the chirp's band edge)."""
     draw(NOT_THE_SIMPLEST)
     squint = draw(st.sampled_from([0.0, 0.0, 10.0, 25.0]))
     n_az, n_rg = draw(st.integers(2, 24)), draw(st.integers(2, 24))
@@ -278,16 +280,21 @@ def grid_scenes(draw):
     heights = draw(st.sampled_from(["zero", "flat 100", "uneven 20", "uneven 200"]))
     motion = (draw(st.sampled_from([0.0, 0.0, 0.02, 0.3])),
               draw(st.sampled_from([0.0, 0.0, 0.05])))
-    return squint, (n_az, n_rg), (x, r), step, heights, draw(st.integers(0, 99)), motion
+    phases = draw(st.sampled_from(["speckle", "speckle", "one", "ramp"]))
+    return squint, (n_az, n_rg), (x, r), step, heights, draw(st.integers(0, 99)), motion, phases
 
 
 def _check_grid(method, case, dtype="complex128"):
-    squint, (n_az, n_rg), (x, r), step, heights, seed, motion = case
+    squint, (n_az, n_rg), (x, r), step, heights, seed, motion, *phases = case
     radar = _radar(squint)
     rng = np.random.default_rng(seed)
     az = x + (np.arange(n_az) - n_az // 2) * float(radar.azimuth_spacing)
     rg = r + (np.arange(n_rg) - n_rg // 2) * step * float(radar.range_spacing)
     gamma = (rng.normal(size=(n_az, n_rg)) + 1j * rng.normal(size=(n_az, n_rg))) / np.sqrt(2)
+    if phases and phases[0] != "speckle":  # one phase, or a ramp of random rates per cell
+        rates = rng.uniform(-np.pi, np.pi, 2) if phases[0] == "ramp" else np.zeros(2)
+        gamma = np.exp(1j * (rng.uniform(-np.pi, np.pi) + rates[0] * np.arange(n_az)[:, None]
+                             + rates[1] * np.arange(n_rg)[None, :]))
     height = {"zero": np.zeros((n_az, n_rg)), "flat 100": np.full((n_az, n_rg), 100.0),
               "uneven 20": rng.uniform(0, 20, (n_az, n_rg)),
               "uneven 200": rng.uniform(0, 200, (n_az, n_rg))}[heights]
