@@ -100,3 +100,24 @@ def test_line_of_sight_errors_match_numpy(case):
     want = [np.max(np.abs(np.where(lobe, los, 0.0)), initial=0.0),
             np.sum(w * 4 * np.sin(phase / 2) ** 2), np.sum(w)]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-300)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.floats(0.0, 4.0), st.integers(0, 2**31 - 1),
+       st.sampled_from(["sorted", "reversed", "ties"]), st.booleans())
+def test_grid_pair_count_matches_the_listing(n_az, n_rg, reach, seed, order, masked):
+    """``_budgets._grid_candidates``, the pairs of a grid's cells within ``reach`` along
+    track counted by column (so that a large grid's check stops before listing its cells),
+    equals the count of the cells' listing sorted by azimuth, whatever the columns' order,
+    ties and the cells left out: exact (integers)."""
+    rng = np.random.default_rng(seed)
+    azimuth = np.sort(rng.uniform(-5.0, 5.0, n_az))
+    if order == "reversed":
+        azimuth = azimuth[::-1].copy()
+    elif order == "ties":
+        azimuth = np.round(azimuth)
+    kept = rng.random((n_az, n_rg)) < rng.random() if masked else None
+    x = np.ravel(np.broadcast_to(azimuth[:, None], (n_az, n_rg)))
+    x = np.sort(x if kept is None else x[np.ravel(kept)], kind="stable")
+    listed = int(np.sum(np.searchsorted(x, x + reach, side="right") - np.arange(x.size) - 1))
+    assert _budgets._grid_candidates(azimuth, kept, (n_az, n_rg), reach) == listed

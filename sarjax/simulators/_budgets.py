@@ -516,6 +516,19 @@ _OWN_LIMIT = 20_000
 _PAIR_STEPS = 64  # sub-sample positions of the chirp ends' error correlation
 
 
+def _grid_candidates(azimuth, kept, shape, reach) -> int:
+    """How many pairs of a grid's cells (those ``kept``: (n_az, n_rg) bool or None for
+    all) lie within ``reach`` [m] of one another along track: the pairs
+    :func:`interference_factor` lists before it tests their range, counted by column."""
+    per_column = np.full(shape[0], shape[1]) if kept is None else np.sum(kept, axis=1)
+    order = np.argsort(azimuth, kind="stable")
+    x, count = azimuth[order], per_column[order].astype(np.int64)
+    before = np.concatenate([[0], np.cumsum(count)])
+    ends = np.searchsorted(x, x + reach, side="right")
+    later = before[ends] - before[np.arange(x.size) + 1]  # kept cells of later columns
+    return int(np.sum(count * (count - 1) // 2) + np.sum(count * later))
+
+
 def interference_factor(radar, scene, chirp, outside=None, window=None,
                         max_pairs=None) -> float:
     """How much larger the chirp ends' error is, relative to the echo, where point targets
@@ -582,15 +595,23 @@ def interference_factor(radar, scene, chirp, outside=None, window=None,
             values[:2] = values[0][:, None], values[1][None, :]
     if any(v is None for v in values + constants) or math.prod(shape) < 2:
         return 1.0
-    x, r, gamma, v_r, v_a = (np.ravel(np.broadcast_to(v, shape)) for v in values)
-    keep = np.ones(x.size, bool) if outside is None else ~np.ravel(np.broadcast_to(outside,
-                                                                                  shape))
-    x, r, gamma, v_r, v_a = (v[keep] for v in (x, r, gamma, v_r, v_a))
     bandwidth, k0, lam, length, squint, speed, dx = (float(v) for v in constants)
-    if x.size < 2 or bandwidth <= 0:
+    if bandwidth <= 0:
         return 1.0
     cells_r = _PAIR_CELLS * SPEED_OF_LIGHT / (2 * bandwidth)
     cells_x = _PAIR_CELLS * length / 2
+    kept = None if outside is None else ~np.broadcast_to(outside, shape)
+    if not isinstance(scene, PointTargets):
+        # a grid's candidate pairs counted by column before its cells are listed (a
+        # large grid has many more than _PAIR_CANDIDATES: 1 at once)
+        candidates = _grid_candidates(values[0][:, 0], kept, shape, cells_x)
+        if candidates == 0 or candidates > _PAIR_CANDIDATES:
+            return 1.0
+    x, r, gamma, v_r, v_a = (np.ravel(np.broadcast_to(v, shape)) for v in values)
+    if kept is not None:
+        x, r, gamma, v_r, v_a = (v[np.ravel(kept)] for v in (x, r, gamma, v_r, v_a))
+    if x.size < 2:
+        return 1.0
     order = np.argsort(x, kind="stable")
     x, r, gamma, v_r, v_a = (v[order] for v in (x, r, gamma, v_r, v_a))
     # every pair (i, j > i) within cells_x along track, then within cells_r in range
