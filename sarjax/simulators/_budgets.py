@@ -781,6 +781,21 @@ def _coherent_pulses(size, num_range):
             int(min(_EDGE_PULSES, max(32, (1 << 16) // size))))
 
 
+def _echo_seen(x_p, dy, dz, xs, rs, hs, v_r, v_a, constants):
+    """(echo range R [m], pattern argument u) of scatterers at (x, r, h) seen from the
+    pulse at x' with deviation (Δy, Δz), as the exact model sees them (stop-and-go): a
+    moving one at offset ``s (1 − v_a)`` and range ``r + v_r s`` (``s = x' − x``; v_a, v_r
+    in units of the platform's speed). ``constants``: (H, λ, L, tan φ_d). Broadcasting."""
+    height, lam, length, tan_d = constants
+    passed = x_p - xs  # s = x' − x [m]
+    along = passed * (1 - v_a)
+    moved = rs + v_r * passed
+    los = geometry.line_of_sight_deviation(dy, dz, moved, hs, height)
+    echo = moved + geometry.range_offset(along, moved, los)
+    u = (length / lam) * (along / moved + tan_d) / (1 - along * tan_d / moved)
+    return echo, u
+
+
 @functools.lru_cache(maxsize=16)
 def edge_kernels(chirp_rate, half_length, range_spacing, aliases, tolerance=None,
                  steps=_COHERENT_STEPS, taps=_COHERENT_TAPS):
@@ -825,12 +840,8 @@ def _coherent_edge_sums(pattern, echo_pulses, edge_pulses, xs, rs, hs, gamma, v_
 
     def seen(x, dy_p, dz_p):
         """Each scatterer's amplitude γ W² e^{−jk₀R} and echo centre [samples] at x'."""
-        passed = x - xs  # s = x' − x [m]
-        along = passed * (1 - v_a)  # v_a, v_r in units of the platform's speed
-        moved = rs + v_r * passed
-        los = geometry.line_of_sight_deviation(dy_p, dz_p, moved, hs, height)
-        echo_range = moved + geometry.range_offset(along, moved, los)
-        u = (length / lam) * (along / moved + tan_d) / (1 - along * tan_d / moved)
+        echo_range, u = _echo_seen(x, dy_p, dz_p, xs, rs, hs, v_r, v_a,
+                                   (height, lam, length, tan_d))
         amplitude = gamma * pattern(u) * unit_phasor(-wrap_phase(k0 * echo_range))
         return amplitude, (echo_range - near) / dr
 
@@ -883,37 +894,41 @@ def coherence_factor(radar, scene, motion, acquisition, chirp):
     sum of their powers says: ``(D/D₀)/(E/E₀)`` over pulses spread over the window
     (:func:`_coherent_pulses`), D and E the energy in the window of the summed errors and
     echoes, D₀ and E₀ the same with the powers added. Each scatterer's error is its ends'
-    error waveform at its sub-sample position (:func:`edge_kernels`; per pulse within
-    ±1 dB of the measured), its echo the exact model's, so the sums hold every correlation
-    between scatterers, near or far: two targets a fraction of a cell apart whose echoes
-    cancel and errors do not (:func:`interference_factor`), and a region of uniform or
-    smoothly varying phase, whose echoes cancel over the whole region where the carrier's
-    phase ramp across it falls near the chirp's band edge: a 58 × 31 grid of one phase at
-    25° squint near the window's near edge, −20.7 dB against the exact model where the
-    sum of powers and pairs within two cells predicted −33.5 dB (no warning); now −20.7
-    dB, and of 47 drawn regions (uniform, alternating and linear phases, 0–30° squint,
-    inside the window and at its range edges) none more than 0.2 dB below the measured
-    (up to 9 dB above, at −35 to −46 dB). A few targets' errors, which jump from pulse
-    to pulse as their ends cross a sample, are sampled too coarsely (1.3 and 2.4 dB low
-    on two of 40 drawn pairs): the pairs' estimate beside it holds them. None beyond
-    :data:`_COHERENT_LIMIT` (scatterer, sample) pairs of a pulse or for traced inputs."""
+    error waveform at its sub-sample position (:func:`edge_kernels`; per pulse within ±1 dB
+    of the measured), its echo the exact model's, so the sums hold every correlation between
+    scatterers, near or far: two targets a fraction of a cell apart whose echoes cancel and
+    errors do not (:func:`interference_factor`), and a region of uniform or smoothly varying
+    phase, whose echoes cancel over the whole region where the carrier's phase ramp across
+    it falls near the chirp's band edge: a 58 × 31 grid of one phase at 25° squint near the
+    window's near edge, −20.7 dB against the exact model where the sum of powers and pairs
+    within two cells predicted −33.5 dB (no warning); now predicted −19.8 dB, and of 47
+    drawn regions (uniform, alternating and linear phases, 0–30° squint, inside the window
+    and at its range edges) none more than 0.2 dB below the measured (up to 9 dB above, at
+    −35 to −46 dB). A few targets' errors, which jump from pulse to pulse as their ends
+    cross a sample, are sampled too coarsely (1.3 and 2.4 dB low on two of 40 drawn pairs):
+    the pairs' estimate beside it holds them. None beyond :data:`_COHERENT_LIMIT`
+    (scatterer, sample) pairs of a pulse or for traced inputs."""
     values = [_concrete(v) for v in (radar.height, radar.wavelength, radar.antenna_length,
                                      radar.squint, acquisition.near_range,
                                      radar.range_spacing, radar.pulse_half_length,
                                      radar.wavenumber, radar.chirp_rate, radar.velocity,
                                      radar.azimuth_spacing, acquisition.azimuth_center)]
     positions = scene_positions(scene)
-    gamma = _concrete(scene.reflectivity)
-    if positions is None or gamma is None or any(v is None for v in values):
+    if positions is None or any(v is None for v in values):
         return None
-    height_p, lam, length, squint, near, dr, half, k0, b, speed, dx, centre = (
-        float(v) for v in values)
-    shape = np.broadcast_shapes(*(np.shape(v) for v in positions), np.shape(gamma))
+    # the size first: a large scene's reflectivity is not read
+    shape = np.broadcast_shapes(*(np.shape(v) for v in positions),
+                                np.shape(scene.reflectivity))
     count = math.prod(shape)
     size = max(_COHERENT_BLOCK, 1 << max(int(count - 1).bit_length(), 0))
     n_r = acquisition.num_range
     if count < 2 or size * n_r > _COHERENT_LIMIT:
         return None
+    gamma = _concrete(scene.reflectivity)
+    if gamma is None:
+        return None
+    height_p, lam, length, squint, near, dr, half, k0, b, speed, dx, centre = (
+        float(v) for v in values)
     x, r = (np.ravel(np.broadcast_to(v, shape)).astype(float) for v in positions)
     h = np.ravel(np.broadcast_to(np.asarray(scene.height, float), shape))
     g = np.ravel(np.broadcast_to(gamma, shape)).astype(complex)
@@ -973,13 +988,9 @@ def _chirp_edge_sums(pattern, x_p, dy, dz, pulse_weight, xs, rs, hs, weight, v_r
     def block(pulses):
         """The sums over a block of pulses (its temporaries stay in cache)."""
         x_p, dy, dz, pulse_weight = pulses
-        passed = x_p[:, None] - xs[None, :]  # s = x' − x [m]
-        along = passed * (1 - v_a[None, :])  # v_a, v_r in units of the platform's speed
-        moved = rs[None, :] + v_r[None, :] * passed
-        los = geometry.line_of_sight_deviation(dy[:, None], dz[:, None], moved,
-                                               hs[None, :], height)
-        echo = moved + geometry.range_offset(along, moved, los)
-        u = (length / lam) * (along / moved + tan_d) / (1 - along * tan_d / moved)
+        echo, u = _echo_seen(x_p[:, None], dy[:, None], dz[:, None], xs[None, :],
+                             rs[None, :], hs[None, :], v_r[None, :], v_a[None, :],
+                             (height, lam, length, tan_d))
         w = pulse_weight[:, None] * weight[None, :] * jnp.abs(pattern(u)) ** 2
         position = (echo - near) / dr  # the echo's centre in samples of the window
         sub = jnp.mod(jnp.round((position - jnp.floor(position)) * steps).astype(jnp.int32),
