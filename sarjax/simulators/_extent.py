@@ -173,64 +173,95 @@ def azimuth_support(radar, scene, acquisition, tolerance, bands=None, max_bands=
         radar, scene, acquisition, tolerance, bands, max_bands))
 
 
-def _recorded_arguments(radar, scene, acquisition, energy_below):
-    """The pattern arguments each scatterer's echo is recorded at, for the azimuth budgets:
-    ``((w₀, w₁), x, r, shape, weight, moving, (u_a, u_b), (F_a, F_b))``: the window's first
-    and last pulse [m], the scene's cells
-    (:func:`_scene_cells`, broadcast to ``shape``), their weights ``|γ|²``, velocities
-    (:func:`_velocities`), the arguments at the window's first and last pulses (as the
-    exact model sees a moving scatterer) and the energy fractions below them, lower first.
-    Traced scatterers are judged by the whole echo, equally weighted (no ``u``: None)."""
-    dx = float(radar.azimuth_spacing)
-    n = acquisition.num_pulses
-    w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
-    w1 = w0 + (n - 1) * dx
-    x, r = _scene_cells(scene, (w0, w1))
-    shape = np.broadcast_shapes(np.shape(x), np.shape(r))
-    if is_traced((scene.azimuth, scene.reflectivity)):
-        return ((w0, w1), x, r, shape, np.ones(shape), None, None,
-                (np.zeros(shape), np.ones(shape)))
-    weight = np.abs(np.broadcast_to(np.asarray(scene.reflectivity), shape)) ** 2
-    moving = _velocities(scene, shape)
-    u_a, u_b = (np.nan_to_num(_pattern_u(radar, *_seen_from(radar, end - x, r, moving)),
-                              nan=fill) for end, fill in ((w0, -np.inf), (w1, np.inf)))
-    f_a, f_b = energy_below(u_a), energy_below(u_b)
-    return ((w0, w1), x, r, shape, weight, moving, (u_a, u_b),
-            (np.minimum(f_a, f_b), np.maximum(f_a, f_b)))
+class _RecordedGeometry:
+    """The part of a scene's azimuth analysis that does not depend on its reflectivity
+    (eager, NumPy): where each scatterer's echo is recorded and what the synthesised
+    bands miss of it, per scatterer. :func:`_azimuth_support` and
+    :func:`band_edge_spill` weight these by ``|γ|²``; a new reflectivity on the same
+    cells (a Monte Carlo over speckle) reuses them (:func:`_recorded_geometry`).
 
+    Attributes:
+        window: the window's first and last pulse [m].
+        x, r: the scene's cells (:func:`_scene_cells`), broadcast to ``shape``.
+        moving: the velocities (:func:`_velocities`), or None.
+        arguments: the pattern arguments at the window's first and last pulses (as the
+            exact model sees a moving scatterer), or None for traced scatterers (judged
+            by the whole echo, equally weighted).
+        fractions: the energy fractions below them, lower first.
+    """
 
-def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
-    u_grid, cumulative = pattern_energy_table(radar.pattern)
-    # F(u): the energy fraction below u, monotone, so that the energy over
-    # [max(u_a, c), min(u_b, d)] is min(F(u_b), F(d)) − max(F(u_a), F(c)): the scatterers'
-    # F(u_a), F(u_b) are interpolated once, the bands' edges per range only
-    energy_below = lambda u: np.interp(u, u_grid, cumulative)
-    dx = float(radar.azimuth_spacing)
-    (w0, w1), x, r, shape, weight, moving, arguments, (f_a, f_b) = _recorded_arguments(
-        radar, scene, acquisition, energy_below)
-    if arguments is not None:
-        u_a, u_b = arguments
-    seen = lambda lo, hi: np.clip(np.minimum(f_b, hi) - np.maximum(f_a, lo), 0.0, None)
-    per_scatterer = np.clip(f_b - f_a, 0.0, None)
-    recorded = float(np.sum(weight * per_scatterer))
-    # the stationary-phase amplitude error over the same pattern arguments
-    u_table, curvature = pattern_curvature_table(radar.pattern)
-    if arguments is None:
-        g_span = np.full(shape, curvature[-1])
-    else:
-        g_a, g_b = (np.interp(v, u_table, curvature) for v in arguments)
-        g_span = np.abs(g_b - g_a)
-    coefficient = amplitude_coefficient(radar, np.broadcast_to(r, shape))
-    amplitude = (float(np.sum(weight * coefficient**2 * g_span)) / recorded
-                 if recorded > 0 else 0.0)
-    main_lobe = float(np.sum(weight * seen(energy_below(-1.0), energy_below(1.0))))
-    sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
+    def __init__(self, radar, scene, acquisition):
+        u_grid, cumulative = pattern_energy_table(radar.pattern)
+        self.radar, self.acquisition = radar, acquisition
+        self.u_grid, self.cumulative = u_grid, cumulative
+        # F(u): the energy fraction below u, monotone, so that the energy over
+        # [max(u_a, c), min(u_b, d)] is min(F(u_b), F(d)) − max(F(u_a), F(c)): the
+        # scatterers' F(u_a), F(u_b) are interpolated once, the bands' edges per range only
+        self.energy_below = lambda u: np.interp(u, u_grid, cumulative)
+        dx = float(radar.azimuth_spacing)
+        n = acquisition.num_pulses
+        w0 = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+        w1 = w0 + (n - 1) * dx
+        self.window, self.width = (w0, w1), w1 - w0 + dx
+        self.x, self.r = _scene_cells(scene, (w0, w1))
+        self.shape = np.broadcast_shapes(np.shape(self.x), np.shape(self.r))
+        self.traced = is_traced((scene.azimuth, scene.reflectivity))
+        if self.traced:
+            self.moving, self.arguments = None, None
+            self.fractions = (np.zeros(self.shape), np.ones(self.shape))
+        else:
+            self.moving = _velocities(scene, self.shape)
+            self.arguments = tuple(
+                np.nan_to_num(_pattern_u(radar, *_seen_from(radar, end - self.x, self.r,
+                                                             self.moving)), nan=fill)
+                for end, fill in ((w0, -np.inf), (w1, np.inf)))
+            f_a, f_b = (self.energy_below(u) for u in self.arguments)
+            self.fractions = (np.minimum(f_a, f_b), np.maximum(f_a, f_b))
+        f_a, f_b = self.fractions
+        self.per_scatterer = np.clip(f_b - f_a, 0.0, None)
+        self._bands, self._holds, self._cuts = {}, {}, None
 
-    @functools.cache
-    def band_edges(k):
+    def weight(self, scene):
+        """(shape) ``|γ|²`` of the scene's scatterers (ones where traced)."""
+        if self.traced:
+            return np.ones(self.shape)
+        return np.abs(np.broadcast_to(np.asarray(scene.reflectivity), self.shape)) ** 2
+
+    def seen(self, lo, hi):
+        """The energy fraction each scatterer's window records within ``F ∈ [lo, hi]``."""
+        f_a, f_b = self.fractions
+        return np.clip(np.minimum(f_b, hi) - np.maximum(f_a, lo), 0.0, None)
+
+    @functools.cached_property
+    def curvature(self):
+        """(c², |ΔG|), shape each: the stationary-phase amplitude error's coefficient
+        (:func:`amplitude_coefficient`) squared and the pattern curvature's energy over
+        the recorded pattern arguments."""
+        u_table, curvature = pattern_curvature_table(self.radar.pattern)
+        if self.arguments is None:
+            g_span = np.full(self.shape, curvature[-1])
+        else:
+            g_a, g_b = (np.interp(v, u_table, curvature) for v in self.arguments)
+            g_span = np.abs(g_b - g_a)
+        coefficient = amplitude_coefficient(self.radar, np.broadcast_to(self.r, self.shape))
+        return coefficient**2, g_span
+
+    @functools.cached_property
+    def main_lobe(self):
+        """The energy fraction each window records within the main lobe (|u| ≤ 1)."""
+        return self.seen(self.energy_below(-1.0), self.energy_below(1.0))
+
+    @functools.cached_property
+    def chirp_share(self):
+        """:func:`_chirp_share` of each scatterer."""
+        return _chirp_share(self.radar, self.acquisition, self.x, self.r, self.window,
+                            self.moving)
+
+    def band_edges(self, k):
         """F(u) at the two edges of bands ±k for each scatterer, lower first."""
+        radar, r, moving = self.radar, self.r, self.moving
         phi_lo, phi_hi = band_look_angles(radar, k)
-        edges = [energy_below(_pattern_u(radar, -r * math.tan(phi), r))
+        edges = [self.energy_below(_pattern_u(radar, -r * math.tan(phi), r))
                  for phi in (phi_hi, phi_lo)]
         if moving is not None:
             # the band's cut rings over a few Fresnel zones about its edge (moved by the
@@ -240,57 +271,137 @@ def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
             ringing = (fresnel_margin(radar, r) / r
                        * float(radar.antenna_length) / float(radar.wavelength)
                        / math.cos(float(np.asarray(radar.squint))) ** 2)
-            own = (energy_below(u[0] + ringing),
-                   energy_below(np.maximum(u[1] - ringing, u[0] + ringing)))
+            own = (self.energy_below(u[0] + ringing),
+                   self.energy_below(np.maximum(u[1] - ringing, u[0] + ringing)))
             lower, upper = np.minimum(*edges), np.maximum(*edges)
             return np.where(moving[2], own[0], lower), np.where(moving[2], own[1], upper)
         return np.minimum(*edges), np.maximum(*edges)
 
-    # the bands' cut rings into the window (_ringing): from the cut's own pulse, and on
-    # the circular grid from its images, which the grid holds far enough away
-    width = w1 - w0 + dx
-    if is_traced((scene.azimuth, scene.reflectivity)):
-        ringing = lambda k: 0.0  # noqa: E731  (judged by the whole echo)
-    else:
-        table = np.gradient(cumulative, u_grid)  # |W²(u)|² / ∫|W²|² du
-        density = lambda u: np.interp(np.nan_to_num(u, nan=np.inf), u_grid, table,  # noqa: E731
-                                      left=0.0, right=0.0)
-        slope = np.abs(u_b - u_a) / width  # |du/dx'| over the window
-        cuts = functools.cache(lambda k: _band_cuts(radar, x, r, moving, k))
+    @functools.cached_property
+    def _density_table(self):
+        return np.gradient(self.cumulative, self.u_grid)  # |W²(u)|² / ∫|W²|² du
 
-        def ringing(k):
-            x_e, u_e, zone2 = cuts(k)
-            gap = np.maximum(w0 - x_e, x_e - w1)
-            return np.sum(_ringing(gap, width, u_e, zone2, density, slope), axis=0)
+    def _density(self, u):
+        """``|W²(u)|² / ∫|W²|² du``."""
+        return np.interp(np.nan_to_num(u, nan=np.inf), self.u_grid, self._density_table,
+                         left=0.0, right=0.0)
+
+    @functools.cached_property
+    def _slope(self):
+        u_a, u_b = self.arguments
+        return np.abs(u_b - u_a) / self.width  # |du/dx'| over the window
+
+    def _band_cuts(self, k):
+        """:func:`_band_cuts` for bands ±k (the last one asked for is kept until its
+        hold is formed)."""
+        cuts = self._cuts  # read once: a call in another thread may replace it
+        if cuts is None or cuts[0] != k:
+            cuts = (k, _band_cuts(self.radar, self.x, self.r, self.moving, k))
+            self._cuts = cuts
+        return cuts[1]
+
+    def bands(self, k):
+        """(missed, in_bands) for bands ±k, shape each: the energy fraction of each
+        scatterer's recorded echo the bands miss, with what their cut rings into the
+        window (:func:`_ringing`: from the cut's own pulse, and on the circular grid from
+        its images, which the grid holds far enough away); and the fraction between the
+        bands' edges."""
+        if k not in self._bands:
+            lower, upper = self.band_edges(k)
+            covered = self.seen(lower, upper)
+            if self.traced:
+                ringing = 0.0  # judged by the whole echo
+            else:
+                x_e, u_e, zone2 = self._band_cuts(k)
+                w0, w1 = self.window
+                gap = np.maximum(w0 - x_e, x_e - w1)
+                ringing = np.sum(_ringing(gap, self.width, u_e, zone2, self._density,
+                                          self._slope), axis=0)
+            self._bands[k] = (self.per_scatterer - covered + ringing,
+                              np.clip(upper - lower, 0.0, None))
+        return self._bands[k]
+
+    def hold_terms(self, k):
+        """(x_e, first, terms) for bands ±k: each cut's pulse (2, shape) (the scatterer's
+        own where it has none), whether the lower-ξ cut comes first along track, and
+        :func:`_image_distance`'s ``terms`` of each cut (2, shape)."""
+        if k not in self._holds:
+            x_e, u_e, zone2 = self._band_cuts(k)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                terms = self._density(u_e) * zone2 * self.width * self._slope
+            # the image of the left cut falls right of the window, and the other way round
+            x_e = np.where(np.isfinite(x_e), x_e, self.x)
+            # the two cuts in order along track (a select of two: an argsort along an axis
+            # of two was a quarter of a 404 352-cell grid's support analysis)
+            self._holds[k] = (x_e, x_e[0] <= x_e[1], terms)
+            self._cuts = None
+        return self._holds[k]
+
+
+GEOMETRY_CELLS = 1 << 20  # the largest scene whose recorded geometry is kept between calls
+# (about 15 float64 arrays of its cells: 130 MB at this size)
+_LAST_GEOMETRY = [None]  # ((the inputs, their values), _RecordedGeometry) of the last scene
+
+
+def _recorded_geometry(radar, scene, acquisition):
+    """The scene's :class:`_RecordedGeometry`; the last one is kept for the next call on
+    the same radar (by identity), window and cells (by value: a new reflectivity on the
+    same grid reuses it) up to ``GEOMETRY_CELLS`` cells."""
+    if is_traced((scene.azimuth, scene.range, scene.reflectivity,
+                  getattr(scene, "velocity_range", None),
+                  getattr(scene, "velocity_azimuth", None))):
+        return _RecordedGeometry(radar, scene, acquisition)
+    values = tuple(None if v is None else np.array(v) for v in (
+        scene.azimuth, scene.range, getattr(scene, "velocity_range", None),
+        getattr(scene, "velocity_azimuth", None)))
+    key = (radar, type(scene), np.shape(scene.reflectivity), acquisition.num_pulses,
+           acquisition.num_range, float(acquisition.azimuth_center),
+           float(acquisition.near_range))
+    last = _LAST_GEOMETRY[0]
+    if last is not None and last[0][0] is radar and last[0][1:] == key[1:] and all(
+            (a is None and b is None) or (a is not None and b is not None
+                                          and a.shape == b.shape and a.dtype == b.dtype
+                                          and np.array_equal(a, b))
+            for a, b in zip(last[1], values, strict=True)):
+        return last[2]
+    geometry = _RecordedGeometry(radar, scene, acquisition)
+    if math.prod(geometry.shape) <= GEOMETRY_CELLS:
+        _LAST_GEOMETRY[0] = (key, values, geometry)
+    return geometry
+
+
+def _azimuth_support(radar, scene, acquisition, tolerance, bands, max_bands):
+    geometry = _recorded_geometry(radar, scene, acquisition)
+    weight = geometry.weight(scene)
+    weighted = weight * geometry.per_scatterer
+    recorded = float(np.sum(weighted))
+    # the stationary-phase amplitude error over the same pattern arguments
+    coefficient2, g_span = geometry.curvature
+    amplitude = (float(np.sum(weight * coefficient2 * g_span)) / recorded
+                 if recorded > 0 else 0.0)
+    main_lobe = float(np.sum(weight * geometry.main_lobe))
+    sidelobes = 1.0 - main_lobe / recorded if recorded > 0 else 0.0
 
     def left_out(k):
-        covered = seen(*band_edges(k))
-        missed = float(np.sum(weight * (per_scatterer - covered + ringing(k))))
+        missed = float(np.sum(weight * geometry.bands(k)[0]))
         return missed / recorded if recorded > 0 else 0.0
 
     if bands is None:
         bands = 0
         while left_out(bands) > tolerance and bands < max_bands:
             bands += 1
-    lower, upper = band_edges(bands)
-    in_bands = np.clip(upper - lower, 0.0, None)
-    in_window = weight * per_scatterer * _chirp_share(radar, acquisition, x, r, (w0, w1),
-                                                      moving)
+    in_bands = geometry.bands(bands)[1]
+    in_window = weighted * geometry.chirp_share
     window_energy = float(np.sum(in_window))
     synthesised = (float(np.sum(weight * in_bands)) / window_energy if window_energy > 0
                    else 1.0)
     hold = None
-    if not is_traced((scene.azimuth, scene.reflectivity)) and recorded > 0:
+    if not geometry.traced and recorded > 0:
         # each cut's images at least this far from the window: a quarter of the
         # tolerance over the scene, shared by the scatterers by weight
-        x_e, u_e, zone2 = cuts(int(bands))
         budget = 0.25 * tolerance * recorded / max(float(np.sum(weight)), 1e-300)
-        reach = _image_distance(budget, width, u_e, zone2, density, slope)
-        # the image of the left cut falls right of the window, and the other way round
-        x_e = np.where(np.isfinite(x_e), x_e, x)
-        # the two cuts in order along track (a select of two: an argsort along an axis
-        # of two was a quarter of a 404 352-cell grid's support analysis)
-        first = x_e[0] <= x_e[1]
+        x_e, first, terms = geometry.hold_terms(int(bands))
+        reach = _image_distance(budget, geometry.width, terms)
         hold = (np.where(first, x_e[0] - reach[0], x_e[1] - reach[1]),
                 np.where(first, x_e[1] + reach[1], x_e[0] + reach[0]))
     return AzimuthSupport(int(bands), left_out(bands), band_look_angles(radar, bands),
@@ -305,16 +416,16 @@ def band_edge_spill(radar, scene, acquisition, bands, spread):
     transform wraps it to its other edge.
 
     Each scatterer's recorded energy ``∫|W²(u)|² du`` over the pattern arguments of the
-    window (:func:`_recorded_arguments`), weighted by ``|γ|²``,
+    window (:class:`_RecordedGeometry`), weighted by ``|γ|²``,
     counted within ``ξ_e ± spread`` of each inner edge ``ξ_e`` (``ξ = k₀ sin φ``,
     ``a = −r tan φ``)."""
     if bands < 1 or not spread > 0:
         return 0.0
-    u_grid, cumulative = pattern_energy_table(radar.pattern)
-    energy_below = lambda u: np.interp(u, u_grid, cumulative)  # noqa: E731
-    _, _, r, shape, weight, _, _, (f_a, f_b) = _recorded_arguments(
-        radar, scene, acquisition, energy_below)
-    r = np.broadcast_to(r, shape)
+    geometry = _recorded_geometry(radar, scene, acquisition)
+    energy_below = geometry.energy_below
+    weight = geometry.weight(scene)
+    r = np.broadcast_to(geometry.r, geometry.shape)
+    f_a, f_b = geometry.fractions
     recorded = float(np.sum(weight * (f_b - f_a)))
     if recorded <= 0:
         return 0.0
@@ -389,12 +500,13 @@ def _ringing(gap, width, u, zone2, density, slope):
     return np.nan_to_num(energy, nan=0.0, posinf=0.0)
 
 
-def _image_distance(budget, width, u, zone2, density, slope):
+def _image_distance(budget, width, terms):
     """The distance [m] from the window at which a band cut's periodic image (the grid is
     circular) rings no more than ``budget`` into it (:func:`_ringing` solved for the gap:
-    ``d (d + width) = density ℓ² width |du/dx'| / (4π² budget)``)."""
+    ``d (d + width) = density ℓ² width |du/dx'| / (4π² budget)``; ``terms``: the
+    numerator, ``density(u) ℓ² width |du/dx'|``)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        q = density(u) * zone2 * width * slope / (4 * np.pi**2 * budget)
+        q = terms / (4 * np.pi**2 * budget)
         d = 0.5 * (np.sqrt(width**2 + 4 * q) - width)
     return np.nan_to_num(d, nan=0.0, posinf=0.0)
 
@@ -484,20 +596,22 @@ def _chirp_share(radar, acquisition, x, r, window, moving=None):
 
 
 def _kept(slot, key, held, compute):
-    """``compute()``, or the value kept in ``slot`` (a two-item list) for the same key: a
+    """``compute()``, or the value kept in ``slot`` (a one-item list) for the same key: a
     call's plan and budgets ask for the same support and grid. The first ``held`` items of
     the key are compared by identity (the inputs are held, so that their identities cannot
-    be reused), the others by value."""
+    be reused), the others by value. Key and value are kept as one item: a call in
+    another thread never sees one call's key with another's value."""
     last = slot[0]
-    if last is not None and len(last) == len(key) and all(
-            a is b if i < held else a == b for i, (a, b) in enumerate(zip(last, key, strict=True))):
-        return slot[1]
+    if last is not None and len(last[0]) == len(key) and all(
+            a is b if i < held else a == b
+            for i, (a, b) in enumerate(zip(last[0], key, strict=True))):
+        return last[1]
     value = compute()
-    slot[0], slot[1] = key, value
+    slot[0] = (key, value)
     return value
 
 
-_LAST_SUPPORT = [None, None]  # (the inputs, AzimuthSupport) of the last support decided
+_LAST_SUPPORT = [None]  # ((the inputs, AzimuthSupport),) of the last support decided
 
 
 OFFSET_LIMIT = 4.0  # a moving target's band-edge offset held, over a still target's
@@ -521,7 +635,7 @@ def motion_margin(motion) -> float:
     return total
 
 
-_LAST = [None, None]  # (the inputs, (support, grid)) of the last grid decided
+_LAST = [None]  # ((the inputs, (support, grid)),) of the last grid decided
 
 
 def band_grid(radar, scene, motion, acquisition, azimuth_padding, support, **rules):
