@@ -6,12 +6,16 @@ the programs instead. The ``sarjax`` command turns it on for every run; in Pytho
 an opt-in, :func:`enable_compilation_cache`. Two kinds of entry share the folder:
 
 * XLA's entries (``jit_<name>-<hash>-cache``), every program jax compiles: JAX keys each
-  on the program, its compile options and the jax/jaxlib versions and writes it to a
-  temporary name renamed into place.
+  on the program, its compile options and the jax/jaxlib versions. jax 0.10 writes an
+  entry in place (no temporary name, and no lock unless the cache has a size limit): a
+  process that reads an entry another is still writing finds it truncated, warns
+  (``Error reading persistent compilation cache entry``) and compiles that program
+  itself, so two processes compiling the same program at once cost a compile, never a
+  wrong program.
 * ``programs/``: the simulation call itself, traced, compiled and serialised
   (:mod:`sarjax._exported`), so a later process skips its tracing too; keyed on
   everything static (method, options, plan, shapes, dtypes, devices, versions, the
-  sarjax source), written the same way.
+  sarjax source), written to a temporary name renamed into place.
 
 Processes running at once therefore share one folder safely, and an upgrade never loads
 a stale program.
