@@ -1,11 +1,12 @@
 """The azimuth analysis kept between calls gives what a fresh analysis gives.
 
 A Fourier-domain call decides its Doppler bands and grid from where each scatterer's
-echo is recorded (``_extent.azimuth_support``). The part that does not depend on the
-reflectivity (``_extent._RecordedGeometry``) is kept for the next call on the same radar,
-window and cells, so that a Monte Carlo over speckle does not redo it. Whatever came
-before — the same cells with another reflectivity, other cells, other velocities — the
-support and the band-edge spill must equal, to the bit, those of an analysis made afresh.
+echo is recorded (``_extent.azimuth_support``, ``_extent.work_grid``). The part that does
+not depend on the reflectivity (``_extent._RecordedGeometry``) is kept for the next call
+on the same radar, window and cells, so that a Monte Carlo over speckle does not redo it.
+Whatever came before — the same cells with another reflectivity, other cells, other
+velocities — the support, the band-edge spill and the grids must equal, to the bit,
+those of an analysis made afresh.
 """
 
 from __future__ import annotations
@@ -35,9 +36,14 @@ def _fresh(compute):
 
 
 def _analysis(radar, scene, bands):
-    """Everything the support and the spill give, as one comparable tuple."""
+    """Everything the support, the spill and the grids give, as one comparable tuple: the
+    grid sized by the scene (with a motion margin) and by a fixed padding."""
     support = _extent._azimuth_support(radar, scene, ACQUISITION, 1e-3, bands, 4)
-    return tuple(support), _extent.band_edge_spill(radar, scene, ACQUISITION, 2, 0.5)
+    grids = (_extent.work_grid(radar, scene, ACQUISITION, support=support, motion_margin=0.05),
+             _extent.work_grid(radar, scene, ACQUISITION, 1.0, support=support,
+                               doppler_limited=True, curvature=True, migration=True))
+    return (tuple(support), _extent.band_edge_spill(radar, scene, ACQUISITION, 2, 0.5),
+            tuple(tuple(grid) for grid in grids))
 
 
 def _equal(a, b):
@@ -93,7 +99,8 @@ def test_a_kept_analysis_equals_a_fresh_one(squint, cells, velocity, moved, band
 
 def test_a_new_speckle_on_a_grid_reuses_the_geometry():
     """A grid with heights: a new reflectivity on it reuses the kept geometry (the same
-    object) and equals a fresh analysis; other range lines do not reuse it."""
+    object) and equals a fresh analysis; other range lines do not reuse it. The arrays
+    every call's grid shares are read-only."""
     radar = RADARS[10.0]
     rng = np.random.default_rng(3)
     azimuth = np.linspace(-150.0, 150.0, 61)
@@ -113,3 +120,5 @@ def test_a_new_speckle_on_a_grid_reuses_the_geometry():
         assert _equal(analysis, _fresh(lambda s=scene: _analysis(radar, s, None)))
     shifted = grid(ranges + 0.5)
     assert _extent._recorded_geometry(radar, shifted, ACQUISITION) is not geometry
+    for cells in geometry._grids.values():
+        assert not cells.included.flags.writeable and not cells.span.flags.writeable

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
+from types import SimpleNamespace
 from typing import NamedTuple
 
 import equinox as eqx
@@ -206,20 +207,40 @@ class _RecordedGeometry:
         self.x, self.r = _scene_cells(scene, (w0, w1))
         self.shape = np.broadcast_shapes(np.shape(self.x), np.shape(self.r))
         self.traced = is_traced((scene.azimuth, scene.reflectivity))
+        self.moving = None if self.traced else _velocities(scene, self.shape)
+        self._bands, self._holds, self._cuts, self._grids = {}, {}, None, {}
+
+    @functools.cached_property
+    def arguments(self):
         if self.traced:
-            self.moving, self.arguments = None, None
-            self.fractions = (np.zeros(self.shape), np.ones(self.shape))
-        else:
-            self.moving = _velocities(scene, self.shape)
-            self.arguments = tuple(
-                np.nan_to_num(_pattern_u(radar, *_seen_from(radar, end - self.x, self.r,
-                                                             self.moving)), nan=fill)
-                for end, fill in ((w0, -np.inf), (w1, np.inf)))
-            f_a, f_b = (self.energy_below(u) for u in self.arguments)
-            self.fractions = (np.minimum(f_a, f_b), np.maximum(f_a, f_b))
+            return None
+        return tuple(np.nan_to_num(_pattern_u(self.radar, *_seen_from(
+            self.radar, end - self.x, self.r, self.moving)), nan=fill)
+            for end, fill in ((self.window[0], -np.inf), (self.window[1], np.inf)))
+
+    @functools.cached_property
+    def fractions(self):
+        if self.traced:
+            return np.zeros(self.shape), np.ones(self.shape)
+        f_a, f_b = (self.energy_below(u) for u in self.arguments)
+        return np.minimum(f_a, f_b), np.maximum(f_a, f_b)
+
+    @functools.cached_property
+    def per_scatterer(self):
+        """The energy fraction of each scatterer's echo the window records."""
         f_a, f_b = self.fractions
-        self.per_scatterer = np.clip(f_b - f_a, 0.0, None)
-        self._bands, self._holds, self._cuts = {}, {}, None
+        return np.clip(f_b - f_a, 0.0, None)
+
+    def grid_cells(self, key, compute):
+        """``compute()`` (:func:`_grid_cells`), kept for the same ``key`` (its arrays
+        read-only: every call's grid shares them)."""
+        if key not in self._grids:
+            cells = compute()
+            for value in vars(cells).values():
+                if isinstance(value, np.ndarray):
+                    value.flags.writeable = False
+            self._grids[key] = cells
+        return self._grids[key]
 
     def weight(self, scene):
         """(shape) ``|γ|²`` of the scene's scatterers (ones where traced)."""
@@ -339,7 +360,7 @@ class _RecordedGeometry:
 
 
 GEOMETRY_CELLS = 1 << 20  # the largest scene whose recorded geometry is kept between calls
-# (about 15 float64 arrays of its cells: 130 MB at this size)
+# (about 20 float64 arrays of its cells: 170 MB at this size)
 _LAST_GEOMETRY = [None]  # ((the inputs, their values), _RecordedGeometry) of the last scene
 
 
@@ -710,48 +731,21 @@ def _scene_cells(scene, window=None):
     return x, r
 
 
-def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
-              motion_margin=0.0, doppler_limited=False, curvature=False, migration=False):
-    """The padded grid of a Fourier-domain simulator (:class:`WorkGrid`; eager, on
-    concrete values): the one place the azimuth extent, the crop and the range FFT length
-    are decided.
-
-    The synthesis is circular in both axes: a scatterer's echo, synthesised over its
-    support ``[lo, hi]`` (pulses, or range samples), comes back shifted by whole periods
-    ``P``. It stays out of the window ``[w₀, w₁]`` when ``P > max(w₁ − lo, hi − w₀)``; the
-    grid takes the largest such P over the scatterers whose support reaches the window,
-    so its cost grows with the scene's extent, not with a worst case. Scatterers whose
-    support misses the window are left out (``included``): within the support's tolerance
-    they add nothing there, and they would otherwise wrap in.
-
-    * Azimuth support: the look angles of the synthesised Doppler bands
-      (:func:`azimuth_support`; ``a = x' − x = −r tan φ``; ``support=None``: the
-      principal band). A number
-      ``azimuth_padding`` [footprints] instead pads the window by that many squinted
-      footprints ``λ r_max / (L cos² φ_d)`` on each side (with ``doppler_limited``, no more
-      than where the echo's Doppler leaves the PRF band), whatever the scene; ``wrapped``
-      says which scatterers that grid does not hold.
-    * Range support: the echo's range over the window's pulses within its azimuth support,
-      ± the chirp ``cτ/4``, ``motion_margin`` (the largest line-of-sight deviation) and
-      two samples; at least the window, the chirp (+2 samples) and the range walk of an
-      echo over the padded azimuth span ``span |sin φ_d|`` (with ``curvature`` also its
-      range curvature ``span²/(8 r_min)``, with ``migration`` the range migration at the
-      edge of the synthesised bands ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``,
-      ``ξ_max = (2 bands + 1) π/Δx``).
-    """
+def _grid_cells(radar, scene, acquisition, bands, look, motion_margin):
+    """The per-cell part of :func:`work_grid` that does not depend on the reflectivity,
+    for the bands ±``bands`` (look angles ``look``) and a largest line-of-sight deviation
+    ``motion_margin`` [m]: each scatterer's azimuth support ``[lo, hi]`` [m] and the
+    period that holds it (``span``), whether it reaches the window (``kept``,
+    ``included``), the range the window needs for it (``need_r`` [m], over the kept),
+    and for moving ones (``moving``, :func:`_velocities`) the band edges held no farther
+    than ``OFFSET_LIMIT`` allows (``too_far``)."""
     dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
-    squint = float(np.asarray(radar.squint))
     n, n_range = acquisition.num_pulses, acquisition.num_range
     x_first = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
     w0, w1 = x_first, x_first + (n - 1) * dx
     x, r = np.broadcast_arrays(*_scene_cells(scene, (w0, w1)))
     near = float(acquisition.near_range)
     far = near + (n_range - 1) * dr
-    r_max, r_min = float(np.max(r)), float(np.min(r))
-    k0 = float(radar.wavenumber)
-    bands = 0 if support is None else support.bands
-    xi_max = (2 * bands + 1) * math.pi / dx  # the synthesised bands' edge
-    look = band_look_angles(radar, 0) if support is None else support.look
     # azimuth support of each scatterer [m], with FRESNEL_ZONES Fresnel zones √(λr/2) on
     # each side: where the pattern is still high at the band's edge (a PRF below the
     # Doppler band) the spectrum's cut rings over a few zones
@@ -801,6 +795,63 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
         kept = np.ones(x.shape, bool)
         included = np.ones(np.shape(scene.reflectivity), bool)
     span = np.maximum(w1 - lo, hi - w0)  # the period that holds each echo's support
+    need_r = np.max(np.where(kept, np.maximum(far - rho0, rho1 - near), 0.0), initial=0.0)
+    return SimpleNamespace(x=x, r=r, lo=lo, hi=hi, moving=moving,
+                           too_far=too_far if moving is not None else None, kept=kept,
+                           included=included, need_r=need_r, span=span)
+
+
+def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
+              motion_margin=0.0, doppler_limited=False, curvature=False, migration=False):
+    """The padded grid of a Fourier-domain simulator (:class:`WorkGrid`; eager, on
+    concrete values): the one place the azimuth extent, the crop and the range FFT length
+    are decided.
+
+    The synthesis is circular in both axes: a scatterer's echo, synthesised over its
+    support ``[lo, hi]`` (pulses, or range samples), comes back shifted by whole periods
+    ``P``. It stays out of the window ``[w₀, w₁]`` when ``P > max(w₁ − lo, hi − w₀)``; the
+    grid takes the largest such P over the scatterers whose support reaches the window,
+    so its cost grows with the scene's extent, not with a worst case. Scatterers whose
+    support misses the window are left out (``included``): within the support's tolerance
+    they add nothing there, and they would otherwise wrap in.
+
+    * Azimuth support: the look angles of the synthesised Doppler bands
+      (:func:`azimuth_support`; ``a = x' − x = −r tan φ``; ``support=None``: the
+      principal band). A number
+      ``azimuth_padding`` [footprints] instead pads the window by that many squinted
+      footprints ``λ r_max / (L cos² φ_d)`` on each side (with ``doppler_limited``, no more
+      than where the echo's Doppler leaves the PRF band), whatever the scene; ``wrapped``
+      says which scatterers that grid does not hold.
+    * Range support: the echo's range over the window's pulses within its azimuth support,
+      ± the chirp ``cτ/4``, ``motion_margin`` (the largest line-of-sight deviation) and
+      two samples; at least the window, the chirp (+2 samples) and the range walk of an
+      echo over the padded azimuth span ``span |sin φ_d|`` (with ``curvature`` also its
+      range curvature ``span²/(8 r_min)``, with ``migration`` the range migration at the
+      edge of the synthesised bands ``r_max (1/√(1 − ξ_max²/k₀²) − 1)``,
+      ``ξ_max = (2 bands + 1) π/Δx``).
+    """
+    dx, dr = float(radar.azimuth_spacing), float(radar.range_spacing)
+    squint = float(np.asarray(radar.squint))
+    n, n_range = acquisition.num_pulses, acquisition.num_range
+    x_first = float(acquisition.azimuth_center) - (n - 1) / 2 * dx
+    w0, w1 = x_first, x_first + (n - 1) * dx
+    k0 = float(radar.wavenumber)
+    bands = 0 if support is None else support.bands
+    xi_max = (2 * bands + 1) * math.pi / dx  # the synthesised bands' edge
+    look = band_look_angles(radar, 0) if support is None else support.look
+    compute = functools.partial(_grid_cells, radar, scene, acquisition, bands, look,
+                                motion_margin)
+    if is_traced((scene.azimuth, scene.range, scene.reflectivity,
+                  getattr(scene, "velocity_range", None),
+                  getattr(scene, "velocity_azimuth", None))):
+        cells = compute()
+    else:  # the same for a new reflectivity on the same cells: kept with their geometry
+        cells = _recorded_geometry(radar, scene, acquisition).grid_cells(
+            (bands, tuple(float(v) for v in look), float(motion_margin)), compute)
+    x, r, lo, hi, moving, too_far, kept, included, need_r, span = (
+        cells.x, cells.r, cells.lo, cells.hi, cells.moving, cells.too_far, cells.kept,
+        cells.included, cells.need_r, cells.span)
+    r_max, r_min = float(np.max(r)), float(np.min(r))
     if support is not None and support.hold is not None:
         # and keeps the images of its bands' cut from ringing into the window
         span = np.maximum(span, np.maximum(w1 - support.hold[0], support.hold[1] - w0))
@@ -854,7 +905,6 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
         walk += r_max * (1 / math.sqrt(max(1 - (xi_max / k0) ** 2, 1e-6)) - 1)
     chirp = int(float(radar.chirp_samples)) + 2
     fixed = n_range + chirp + int(walk / dr)
-    need_r = np.max(np.where(kept, np.maximum(far - rho0, rho1 - near), 0.0), initial=0.0)
     n_r = next_fast_len(max(fixed, math.ceil(need_r / dr) + 2))
     # the scene's need over what one scatterer in the window needs
     own = n * dx + r_max * (math.tan(look[1]) - math.tan(look[0]))
