@@ -189,7 +189,8 @@ def time_new_scenes(radar, gamma, az, rg, height, motion, grid, method, dtype, r
     """:func:`time_case` with a new speckle realisation of the same grid on every call
     (drawn before the call's timer starts): what a Monte Carlo over scenes pays. A call
     keeps the last scene's extent analysis (its Doppler bands and padded grid, NumPy over
-    every cell), so repeated calls on one scene skip it; a new scene does not."""
+    every cell), so repeated calls on one scene skip it; a new realisation on the same
+    cells pays its weighted sums (the per-cell geometry is kept, ``_extent``)."""
     from sarjax import _simulate
 
     num_pulses, num_range, near = grid
@@ -417,9 +418,11 @@ complex64 {fft_c64 * 1e3:.2f} ms; the padded grid's own ({n_x} × {n_r}), comple
 
 Rows "a new scene each call": the same call (complex64, freed memory not kept) on a new
 speckle realisation of the grid every time, drawn before the timer starts (a Monte Carlo
-over scenes): a call keeps the last scene's extent analysis (its Doppler bands and
-padded grid, NumPy over all 404 352 cells, before the program starts), which repeated
-calls on one scene skip; "checks" is then `_prepare` on new scenes.
+over scenes): the extent analysis (its Doppler bands and padded grid, NumPy over all
+404 352 cells, before the program starts) keeps what it forms per cell without the
+reflectivity for the next call on the same cells, so a new realisation pays its weighted
+sums, and repeated calls on one scene skip even those; "checks" is then `_prepare` on
+new scenes.
 Rows "freed memory kept": the same calls after `sj.retain_freed_memory()` (glibc keeps
 the memory a call frees for the next instead of unmapping it, so the next call does not
 fault its temporaries in again, `sarjax/_allocator.py`; the `sarjax` command sets it),
