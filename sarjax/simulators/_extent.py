@@ -183,7 +183,7 @@ class _RecordedGeometry:
 
     Attributes:
         window: the window's first and last pulse [m].
-        x, r: the scene's cells (:func:`_scene_cells`), broadcast to ``shape``.
+        x, r: the scene's cells (:func:`_scene_cells`), broadcastable to ``shape``.
         moving: the velocities (:func:`_velocities`), or None.
         arguments: the pattern arguments at the window's first and last pulses (as the
             exact model sees a moving scatterer), or None for traced scatterers (judged
