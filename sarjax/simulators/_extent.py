@@ -841,13 +841,10 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
     look = band_look_angles(radar, 0) if support is None else support.look
     compute = functools.partial(_grid_cells, radar, scene, acquisition, bands, look,
                                 motion_margin)
-    if is_traced((scene.azimuth, scene.range, scene.reflectivity,
-                  getattr(scene, "velocity_range", None),
-                  getattr(scene, "velocity_azimuth", None))):
-        cells = compute()
-    else:  # the same for a new reflectivity on the same cells: kept with their geometry
-        cells = _recorded_geometry(radar, scene, acquisition).grid_cells(
-            (bands, tuple(float(v) for v in look), float(motion_margin)), compute)
+    # the same for a new reflectivity on the same cells: kept with their geometry (a
+    # traced scene's geometry is its own, made afresh)
+    cells = _recorded_geometry(radar, scene, acquisition).grid_cells(
+        (bands, tuple(float(v) for v in look), float(motion_margin)), compute)
     x, r, lo, hi, moving, too_far, kept, included, need_r, span = (
         cells.x, cells.r, cells.lo, cells.hi, cells.moving, cells.too_far, cells.kept,
         cells.included, cells.need_r, cells.span)
