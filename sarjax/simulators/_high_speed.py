@@ -202,8 +202,8 @@ class HighSpeed(AbstractStraightTrackSimulator):
 
     def prepare(self, radar, scene, acquisition, motion=None) -> HighSpeedPlan:
         """Velocity groups and FFT sizes from the concrete inputs: room in range for the
-        walk and curvature of an echo over the padded azimuth window (squinted echoes
-        walk across the range window: beyond it they would wrap)."""
+        walk and curvature of an echo over the window's pulses (squinted echoes walk
+        across the range window: beyond it they would wrap)."""
         if isinstance(scene, ReflectivityGrid):
             engine.check_grid_scene(scene, radar)
         groups = velocity_groups(radar, scene)
