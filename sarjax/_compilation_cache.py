@@ -8,10 +8,12 @@ an opt-in, :func:`enable_compilation_cache`. Two kinds of entry share the folder
 * XLA's entries (``jit_<name>-<hash>-cache``), every program jax compiles: JAX keys each
   on the program, its compile options and the jax/jaxlib versions. jax 0.10 writes an
   entry in place (no temporary name, and no lock unless the cache has a size limit): a
-  process that reads an entry another is still writing finds it truncated, warns
-  (``Error reading persistent compilation cache entry``) and compiles that program
-  itself, so two processes compiling the same program at once cost a compile, never a
-  wrong program.
+  process reading an entry another was still writing found it truncated, warned
+  (``Error reading persistent compilation cache entry``) and compiled the program
+  itself. Importing sarjax makes jax's file cache write each entry to a temporary name
+  and rename it into place (:class:`_WholeEntries`), so a reader finds an entry whole
+  or not at all; a cache jax had already opened before sarjax was imported keeps
+  jax's writer.
 * ``programs/``: the simulation call itself, traced, compiled and serialised
   (:mod:`sarjax._exported`), so a later process skips its tracing too; keyed on
   everything static (method, options, plan, shapes, dtypes, devices, versions, the
@@ -24,6 +26,7 @@ a stale program.
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
 import jax
@@ -77,3 +80,50 @@ def enable_compilation_cache(path=None) -> Path | None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_SECONDS)
     _exported.set_folder(folder / PROGRAMS)
     return folder
+
+
+def _whole_entries():
+    """The class jax's file cache is made of, writing each entry whole (None where jax's
+    private cache module is not as expected: jax's own writer stays)."""
+    try:
+        from jax._src import compilation_cache, lru_cache
+    except ImportError:
+        return None
+    base = getattr(compilation_cache, "LRUCache", None)
+    suffix = getattr(lru_cache, "_CACHE_SUFFIX", None)
+    if not isinstance(base, type) or not isinstance(suffix, str):
+        return None
+    if getattr(base, "writes_whole_entries", False):
+        return base
+
+    class _WholeEntries(base):
+        """jax's file cache, an entry written to a temporary name in the same folder
+        and renamed into place (``os.replace``, atomic on a local file system): a
+        process reading the cache finds each entry whole or absent. With a size limit
+        (jax's file lock) or on a remote file system, jax's own writer."""
+
+        writes_whole_entries = True
+
+        def put(self, key: str, value: bytes) -> None:
+            folder = str(getattr(self, "path", ""))
+            if getattr(self, "eviction_enabled", True) or not folder or "://" in folder:
+                return super().put(key, value)
+            if not key:
+                raise ValueError("key cannot be empty")
+            folder = Path(folder)
+            entry = folder / f"{key}{suffix}"
+            if entry.exists():
+                return
+            temporary = folder / f".{entry.name}.{os.getpid()}.{threading.get_ident()}.tmp"
+            try:
+                temporary.write_bytes(value)
+                os.replace(temporary, entry)
+            finally:
+                temporary.unlink(missing_ok=True)
+
+    _WholeEntries.__qualname__ = "_WholeEntries"
+    compilation_cache.LRUCache = _WholeEntries  # what jax opens its file cache with
+    return _WholeEntries
+
+
+_WholeEntries = _whole_entries()
