@@ -82,21 +82,16 @@ def enable_compilation_cache(path=None) -> Path | None:
     return folder
 
 
-def _whole_entries():
-    """The class jax's file cache is made of, writing each entry whole (None where jax's
-    private cache module is not as expected: jax's own writer stays)."""
-    try:
-        from jax._src import compilation_cache, lru_cache
-    except ImportError:
-        return None
-    base = getattr(compilation_cache, "LRUCache", None)
-    suffix = getattr(lru_cache, "_CACHE_SUFFIX", None)
-    if not isinstance(base, type) or not isinstance(suffix, str):
-        return None
-    if getattr(base, "writes_whole_entries", False):
-        return base
 
-    class _WholeEntries(base):
+try:  # jax's private cache modules (jax 0.10): where they differ, jax's own writer stays
+    from jax._src import compilation_cache as _jax_cache
+    from jax._src import lru_cache as _jax_lru
+except ImportError:
+    _jax_cache = _jax_lru = None
+
+if _jax_lru is not None and isinstance(getattr(_jax_lru, "LRUCache", None), type):
+
+    class _WholeEntries(_jax_lru.LRUCache):
         """jax's file cache, an entry written to a temporary name in the same folder
         and renamed into place (``os.replace``, atomic on a local file system): a
         process reading the cache finds each entry whole or absent. With a size limit
@@ -105,13 +100,12 @@ def _whole_entries():
         writes_whole_entries = True
 
         def put(self, key: str, value: bytes) -> None:
-            folder = str(getattr(self, "path", ""))
-            if getattr(self, "eviction_enabled", True) or not folder or "://" in folder:
+            if self.eviction_enabled or "://" in str(self.path):
                 return super().put(key, value)
             if not key:
                 raise ValueError("key cannot be empty")
-            folder = Path(folder)
-            entry = folder / f"{key}{suffix}"
+            folder = Path(str(self.path))
+            entry = folder / f"{key}{_jax_lru._CACHE_SUFFIX}"
             if entry.exists():
                 return
             temporary = folder / f".{entry.name}.{os.getpid()}.{threading.get_ident()}.tmp"
@@ -121,9 +115,4 @@ def _whole_entries():
             finally:
                 temporary.unlink(missing_ok=True)
 
-    _WholeEntries.__qualname__ = "_WholeEntries"
-    compilation_cache.LRUCache = _WholeEntries  # what jax opens its file cache with
-    return _WholeEntries
-
-
-_WholeEntries = _whole_entries()
+    _jax_cache.LRUCache = _WholeEntries  # what jax opens its file cache with

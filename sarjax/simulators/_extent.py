@@ -895,12 +895,9 @@ def work_grid(radar, scene, acquisition, azimuth_padding=None, *, support=None,
                          else ~holds & moving[2].astype(bool))
         wrapped_energy = _wrapped_energy(radar, scene, x, r, look, (w0, w1), period,
                                          kept, unheld_moving)
-    # range: the scene's need, at least the fixed rule over the window's pulses. The
-    # range transform's period P_r replicates the echo along range at each pulse: a
-    # replica stays on its own pulse, so only the window's pulses need room (need_r);
-    # the padded pulses are cropped away whatever wraps there. Sized on the padded span
-    # instead (n_x Δx), a squinted scene held far along track took a range FFT 3.2x
-    # longer than it needs (1728 against 540 samples at 30°, 21 600 pulses)
+    # range: the scene's need, at least the fixed rule over the window's pulses (the
+    # padded pulses need no room: docstring). Sized on the padded span (n_x Δx), a
+    # squinted scene held far along track took 1728 samples where it needs 540
     span = n * dx
     walk = span * abs(math.sin(squint))
     if curvature:
