@@ -225,3 +225,35 @@ def test_dtype_and_scene_size_are_structure():
     assert len(traces) == 3, traces
     _call(simulator, call, dtype=jnp.complex64)
     assert len(traces) == 3, traces
+
+
+def test_the_checks_chirp_spectrum_is_one_program_for_every_chirp():
+    """The eager chirp spectrum of the budget checks (``chirp_spectrum_values``) takes the
+    chirp rate and half-length as inputs: three chirps on one length bucket trace its
+    program once (as Python floats they were static, a program per radar), and each
+    value is the chirp's own spectrum (``chirp_spectrum``; within 1e-12 of the peak: the
+    same float64 Fresnel evaluation, compiled once with the chirp as an input rather than
+    a constant)."""
+    from jax import monitoring
+
+    from sarjax.simulators import _fourier_engine as engine
+
+    traces = []
+
+    def count(event, duration, **kwargs):
+        if event.endswith("jaxpr_trace_duration") and "_chirp_spectrum_program" in str(
+                kwargs.get("fun_name", "")):
+            traces.append(duration)
+
+    eta = np.linspace(-2.0, 2.0, 2049 + next(_unique))  # its own bucket: 4096 samples
+    monitoring.register_event_duration_secs_listener(count)
+    try:
+        for duration, bandwidth in ((1e-6, 40e6), (2e-6, 40e6), (1e-6, 100e6)):
+            radar = sj.presets.airborne_xband(chirp_duration=duration, bandwidth=bandwidth)
+            values = engine.chirp_spectrum_values(radar.chirp_rate, radar.pulse_half_length,
+                                                  eta)
+            expected = np.asarray(engine.chirp_spectrum(radar, jnp.asarray(eta)))
+            assert np.max(np.abs(values - expected)) <= 1e-12 * np.max(np.abs(expected))
+    finally:
+        monitoring.unregister_event_duration_listener(count)
+    assert len(traces) <= 1, traces
