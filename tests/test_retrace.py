@@ -257,3 +257,46 @@ def test_the_checks_chirp_spectrum_is_one_program_for_every_chirp():
     finally:
         monitoring.unregister_event_duration_listener(count)
     assert len(traces) <= 1, traces
+
+
+def test_omega_k_of_apertures_with_one_transform_length_is_one_program():
+    """ω-k's azimuth padding, a static argument, is passed as the transform length it
+    gives less the pulses: two carriers whose full-band apertures differ by a pulse (the
+    window's far range seen over 1494 and 1495 pulses) but give one transform length
+    (2000) trace the focusing program once, not twice, and each focuses its target (the
+    padding's one use is that length)."""
+    from jax import monitoring
+
+    from sarjax.processing import _focus
+    from sarjax.processing._omega_k import azimuth_aperture
+
+    traces = []
+
+    def count(event, duration, **kwargs):
+        if event.endswith("jaxpr_trace_duration") and "_focus_omega_k" in str(
+                kwargs.get("fun_name", "")):
+            traces.append(duration)
+
+    num_pulses, num_range = 503, 211  # a window no other test focuses: a fresh program
+    apertures, images = [], []
+    for carrier in (9.65e9, 9.644e9):
+        radar = sj.presets.airborne_xband(carrier_frequency=carrier)
+        x = (np.arange(num_pulses) - (num_pulses - 1) / 2) * float(radar.azimuth_spacing)
+        motion = sj.Motion(horizontal=0.01 * np.sin(x / 30), vertical=0.01 * np.cos(x / 40))
+        raw = sj.simulate(radar, sj.PointTargets(azimuth=[3.0], range=[5140.0]), motion,
+                          num_pulses=num_pulses, num_range=num_range, near_range=5000.0)
+        window = _focus._lag_axis(radar, jnp.asarray(raw.range),
+                                  _focus.recorded_lags(radar, jnp.asarray(raw.range)))
+        apertures.append(azimuth_aperture(radar, window))
+        monitoring.register_event_duration_secs_listener(count)
+        try:
+            images.append(sj.focus(radar, raw, motion=motion))
+        finally:
+            monitoring.unregister_event_duration_listener(count)
+    assert apertures[0] != apertures[1], apertures  # the case this test is about
+    assert len(traces) <= 1, (apertures, traces)
+    for image in images:  # each focuses its target at (3 m, 5140 m): peak within 0.1 m
+        metrics = sj.point_target_metrics(image, azimuth=3.0, range=5140.0)
+        assert abs(metrics.peak_azimuth - 3.0) < 0.1, metrics
+        assert abs(metrics.peak_range - 5140.0) < 0.1, metrics
+        assert metrics.pslr_azimuth < -10.0, metrics  # focused, not smeared

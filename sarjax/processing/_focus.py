@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import _memory, _validate, geometry
 from .._data import Image, RawData
+from .._numerics.interpolation import next_fast_len
 from ..motion import Motion
 from . import _motion_compensation as moco
 from ._backprojection import backprojection
@@ -35,6 +36,15 @@ _COMPENSATION = (None, "none", "first_order", "second_order")
 # 0–70° either side (tests/test_focusing.py draws squints, places and weightings);
 # beyond, unmeasured
 OMEGA_K_MAX_SQUINT_DEG = 70.0
+
+
+def _transform_padding(num_pulses, aperture):
+    """The azimuth padding of at least ``aperture`` pulses that ω-k's transform takes:
+    ``next_fast_len(num_pulses + aperture) − num_pulses``. The padding is a static
+    argument whose one use is that transform length, so apertures that give one length
+    (a sweep over antenna length or carrier: 1528 and 1527 pulses on a 512-pulse
+    window) share one compiled program instead of tracing and compiling another."""
+    return next_fast_len(num_pulses + aperture) - num_pulses
 
 
 @eqx.filter_jit
@@ -245,7 +255,8 @@ def focus(
         lag_range = _lag_axis(radar, window_range, lags)
         n_fft = range_fft_length(radar, data.shape[1])
         omega_k_sizes = ((max(period - data.shape[0], 0) if circular_azimuth
-                          else azimuth_aperture(radar, lag_range),
+                          else _transform_padding(data.shape[0],
+                                                  azimuth_aperture(radar, lag_range)),
                           kappa_oversampling(radar),
                           range_spread(radar, lag_range))
                          if method == "omega_k" else (0, 1, 0))
