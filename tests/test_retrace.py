@@ -14,6 +14,7 @@ unchanged at these sizes.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 
 import equinox as eqx
@@ -227,6 +228,25 @@ def test_dtype_and_scene_size_are_structure():
     assert len(traces) == 3, traces
 
 
+@contextlib.contextmanager
+def _traces_of(name):
+    """A list that collects, while the block runs, one entry per trace of a jitted
+    function whose name contains ``name`` (JAX's trace-duration events)."""
+    from jax import monitoring
+
+    traces = []
+
+    def count(event, duration, **kwargs):
+        if event.endswith("jaxpr_trace_duration") and name in str(kwargs.get("fun_name", "")):
+            traces.append(duration)
+
+    monitoring.register_event_duration_secs_listener(count)
+    try:
+        yield traces
+    finally:
+        monitoring.unregister_event_duration_listener(count)
+
+
 def test_the_checks_chirp_spectrum_is_one_program_for_every_chirp():
     """The eager chirp spectrum of the budget checks (``chirp_spectrum_values``) takes the
     chirp rate and half-length as inputs: three chirps on one length bucket trace its
@@ -234,28 +254,16 @@ def test_the_checks_chirp_spectrum_is_one_program_for_every_chirp():
     value is the chirp's own spectrum (``chirp_spectrum``; within 1e-12 of the peak: the
     same float64 Fresnel evaluation, compiled once with the chirp as an input rather than
     a constant)."""
-    from jax import monitoring
-
     from sarjax.simulators import _fourier_engine as engine
 
-    traces = []
-
-    def count(event, duration, **kwargs):
-        if event.endswith("jaxpr_trace_duration") and "_chirp_spectrum_program" in str(
-                kwargs.get("fun_name", "")):
-            traces.append(duration)
-
     eta = np.linspace(-2.0, 2.0, 2049 + next(_unique))  # its own bucket: 4096 samples
-    monitoring.register_event_duration_secs_listener(count)
-    try:
+    with _traces_of("_chirp_spectrum_program") as traces:
         for duration, bandwidth in ((1e-6, 40e6), (2e-6, 40e6), (1e-6, 100e6)):
             radar = sj.presets.airborne_xband(chirp_duration=duration, bandwidth=bandwidth)
             values = engine.chirp_spectrum_values(radar.chirp_rate, radar.pulse_half_length,
                                                   eta)
             expected = np.asarray(engine.chirp_spectrum(radar, jnp.asarray(eta)))
             assert np.max(np.abs(values - expected)) <= 1e-12 * np.max(np.abs(expected))
-    finally:
-        monitoring.unregister_event_duration_listener(count)
     assert len(traces) <= 1, traces
 
 
@@ -265,20 +273,11 @@ def test_omega_k_of_apertures_with_one_transform_length_is_one_program():
     window's far range seen over 1494 and 1495 pulses) but give one transform length
     (2000) trace the focusing program once, not twice, and each focuses its target (the
     padding's one use is that length)."""
-    from jax import monitoring
-
     from sarjax.processing import _focus
     from sarjax.processing._omega_k import azimuth_aperture
 
-    traces = []
-
-    def count(event, duration, **kwargs):
-        if event.endswith("jaxpr_trace_duration") and "_focus_omega_k" in str(
-                kwargs.get("fun_name", "")):
-            traces.append(duration)
-
     num_pulses, num_range = 503, 211  # a window no other test focuses: a fresh program
-    apertures, images = [], []
+    apertures, images, traces = [], [], []
     for carrier in (9.65e9, 9.644e9):
         radar = sj.presets.airborne_xband(carrier_frequency=carrier)
         x = (np.arange(num_pulses) - (num_pulses - 1) / 2) * float(radar.azimuth_spacing)
@@ -288,11 +287,9 @@ def test_omega_k_of_apertures_with_one_transform_length_is_one_program():
         window = _focus._lag_axis(radar, jnp.asarray(raw.range),
                                   _focus.recorded_lags(radar, jnp.asarray(raw.range)))
         apertures.append(azimuth_aperture(radar, window))
-        monitoring.register_event_duration_secs_listener(count)
-        try:
+        with _traces_of("_focus_omega_k") as focusing:
             images.append(sj.focus(radar, raw, motion=motion))
-        finally:
-            monitoring.unregister_event_duration_listener(count)
+        traces += focusing
     assert apertures[0] != apertures[1], apertures  # the case this test is about
     assert len(traces) <= 1, (apertures, traces)
     for image in images:  # each focuses its target at (3 m, 5140 m): peak within 0.1 m
