@@ -30,6 +30,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import re
@@ -78,8 +79,11 @@ def _case(n_pulses, n_range, dtype_name, repeats):
 
     first = timed(call)[0]
     s = steady(call, repeats)
+    from sarjax._numerics import native
+
     return dict(first=first, steady=s.min, cpu=s.cpu, worst=s.max,
-                scatterers=n_pulses * n_range, backend=jax.default_backend())
+                scatterers=n_pulses * n_range, backend=jax.default_backend(),
+                spreading=native.status())
 
 
 def _accuracy():
@@ -130,6 +134,7 @@ def _finufft(repeats=5):
         from jax_finufft import nufft1, options
     except ImportError:
         return None
+    from sarjax._numerics import native
     from sarjax.simulators import _nufft as nufft
 
     n, n_r, bands, tolerance = 972 * 416, 675, 5, 1e-4
@@ -150,13 +155,16 @@ def _finufft(repeats=5):
         x = jnp.asarray(theta.astype(real))
         centred = jnp.asarray(((theta + np.pi) % (2 * np.pi) - np.pi).astype(real))
 
-        def ours(c, x):
+        def ours(c, x, use_native):
             cells = x.astype(jnp.float64) * (grid / (2 * np.pi))
-            spread = nufft._spread(cells, c, width, grid, coefficients, grid / 2)
+            spread = nufft._spread(cells, c, width, grid, coefficients, grid / 2, use_native)
             return jnp.fft.fft(spread)[index] * jnp.asarray(deconvolve).astype(c.dtype)
 
-        candidates = [("in-house (sarjax._nufft)", jax.jit(ours), x,
-                       lambda out: np.asarray(out)[np.mod(check, modes)])]
+        candidates = [(f"in-house, {label} spreading",
+                       jax.jit(functools.partial(ours, use_native=use_native)), x,
+                       lambda out: np.asarray(out)[np.mod(check, modes)])
+                      for label, use_native in (("JAX", False), ("native", True))
+                      if not use_native or native.available()]
         for threads, eps in ((1, tolerance), (2, tolerance), (1, 10 * tolerance)):
             opts = options.Opts(nthreads=threads)
             fn = jax.jit(lambda c, x, opts=opts, eps=eps: nufft1(modes, c, x, eps=eps,
@@ -172,14 +180,17 @@ def _finufft(repeats=5):
     return rows
 
 
-def _run_child(args, devices=None):
+def _run_child(args, devices=None, native=True):
     """Run one case in a child process under /usr/bin/time -v; returns (result, peak GB).
-    ``devices``: that many forced host devices in the child (XLA_FLAGS)."""
+    ``devices``: that many forced host devices in the child (XLA_FLAGS); ``native``:
+    False runs the spreading's JAX formulation (``SARJAX_NATIVE=0``)."""
     cmd = [sys.executable, __file__, "--child", json.dumps(args)]
     timer = Path("/usr/bin/time")
     if timer.exists():
         cmd = [str(timer), "-v", *cmd]
     env = dict(os.environ)
+    if not native:
+        env["SARJAX_NATIVE"] = "0"
     if devices:
         env["XLA_FLAGS"] = " ".join(
             [f for f in env.get("XLA_FLAGS", "").split()
@@ -193,6 +204,11 @@ def _run_child(args, devices=None):
     match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
     peak = int(match.group(1)) / 1024**2 if match else float("nan")
     return result, peak
+
+
+def _spreading(status):
+    return ("native kernel" if status == "native"
+            else "JAX" if status.startswith("off") else f"JAX ({status})")
 
 
 def _section(machine, rows, accuracy, load, size, finufft_rows=None):
@@ -218,16 +234,19 @@ def _section(machine, rows, accuracy, load, size, finufft_rows=None):
         "count=n`, so that `simulate` (devices=None: all) splits the pulses between n CPU "
         "devices, which run concurrently (the spreading's scatter-add is one core's loop); "
         "on one device `simulate` runs two blocks of pulses from two host threads at once "
-        "(`sarjax._simulate.HOST_BLOCKS`).",
+        "(`sarjax._simulate.HOST_BLOCKS`). \"spreading\": the type-1 transform's "
+        "scatter-add in the native CPU kernel (`sarjax._numerics.native`, the default where "
+        "it builds) or in its JAX formulation (`SARJAX_NATIVE=0`: the baseline, same run).",
         "",
-        "| dtype | first call (compile + run) [s] | steady [s] | CPU of steady [s] | "
-        "max/min wall | peak RSS [GB] | targets (≤ 30 s, ≤ 4 GB) |",
-        "|---|---|---|---|---|---|---|",
+        "| dtype | spreading | first call (compile + run) [s] | steady [s] | "
+        "CPU of steady [s] | max/min wall | peak RSS [GB] | targets (≤ 30 s, ≤ 4 GB) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         ok = r["steady"] <= STEADY_TARGET_S and r["peak"] <= MEMORY_TARGET_GB
         lines.append(
-            f"| {r['dtype']} | {r['first']:.1f} | {r['steady']:.1f} | {r['cpu']:.1f} | "
+            f"| {r['dtype']} | {_spreading(r['spreading'])} | {r['first']:.1f} | "
+            f"{r['steady']:.2f} | {r['cpu']:.1f} | "
             f"{r['worst'] / r['steady']:.2f} | {r['peak']:.2f} | "
             f"{'met' if ok else 'NOT met'} |")
     if accuracy:
@@ -284,12 +303,14 @@ def main(argv=None):
     info = machine()
     rows = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    cases = [("complex128", None), ("complex64", None)]
+    # the spreading's JAX formulation in the same run: the baseline of the native kernel
+    cases = [("complex128", None, True), ("complex64", None, True),
+             ("complex64", None, False)]
     if cores > 1:  # the pulses split between devices (on one: between host threads)
-        cases.append(("complex64", cores))
-    for dtype, devices in cases:
+        cases.append(("complex64", cores, True))
+    for dtype, devices, native in cases:
         result, peak = _run_child(dict(pulses=size[0], ranges=size[1], dtype=dtype,
-                                       repeats=args.repeats), devices)
+                                       repeats=args.repeats), devices, native)
         label = dtype if devices is None else f"{dtype}, {devices} host devices"
         result.update(dtype=label, peak=peak)
         rows.append(result)

@@ -10,7 +10,7 @@ everything that determines it; a later process with the same key loads it and ru
 without tracing.
 
 **Key** (a SHA-256 of a canonical text): the function's module and name; the sarjax
-source (a digest of every ``.py`` file of the package, so an edited checkout never loads
+source (a digest of every ``.py`` and ``.cc`` file of the package, so an edited checkout never loads
 an older program); the versions of Python, jax, jaxlib, equinox and NumPy; the backend,
 its platform version, the devices, the CPU model and flags and ``$XLA_FLAGS``; the jax
 options that change a trace (x64, rank and dtype promotion, matmul precision, the
@@ -353,10 +353,11 @@ def _cpu() -> str:
 
 
 def _source_digest() -> str:
-    """SHA-256 of every ``.py`` file of the package, by relative path."""
+    """SHA-256 of every ``.py`` file and native kernel source (``.cc``) of the package,
+    by relative path."""
     root = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
+    for path in sorted([*root.rglob("*.py"), *root.rglob("*.cc")]):
         digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
