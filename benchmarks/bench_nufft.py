@@ -49,9 +49,8 @@ STEADY_TARGET_S = 30.0
 MEMORY_TARGET_GB = 4.0
 
 
-def _case(n_pulses, n_range, dtype_name, repeats):
-    """Run in the child: returns a dict of timings."""
-    import jax
+def seed000_call(n_pulses, n_range, dtype_name, devices=None):
+    """``call()``: the benchmark's simulation (module docstring), on ``devices``."""
     import jax.numpy as jnp
     import numpy as np
 
@@ -75,8 +74,16 @@ def _case(n_pulses, n_range, dtype_name, repeats):
     def call():
         return sj.simulate(radar, scene, motion, method="time_domain_nufft",
                            num_pulses=n_pulses, num_range=n_range, near_range=float(rg[0]),
-                           dtype=dtype).data.block_until_ready()
+                           dtype=dtype, devices=devices).data.block_until_ready()
 
+    return call
+
+
+def _case(n_pulses, n_range, dtype_name, repeats):
+    """Run in the child: returns a dict of timings."""
+    import jax
+
+    call = seed000_call(n_pulses, n_range, dtype_name)
     first = timed(call)[0]
     s = steady(call, repeats)
     from sarjax._numerics import native

@@ -7,6 +7,7 @@ carry zero amplitude in the simulator and are clamped)."""
 
 from __future__ import annotations
 
+import functools
 import shutil
 
 import jax
@@ -89,17 +90,25 @@ def spreads(draw):
 @settings(max_examples=10)
 @given(spreads())
 def test_native_spread_equals_the_jax_formulation(case):
-    """Equal to rounding: the same float64 fraction and first cell, the same polynomial
-    taps in the amplitude's precision; only the order of the additions differs (bound:
+    """Equal to rounding, and so is the JAX formulation's form for other backends (real
+    and imaginary parts scattered apart): the same float64 fraction and first cell, the
+    same polynomial taps in the amplitude's precision; only the order of the additions
+    differs (bound:
     a few units of the precision's rounding times Σ|a_P|, the taps being ≤ 1)."""
     width, grid, points, amplitude = case
     p, a = jnp.asarray(points), jnp.asarray(amplitude)
     reference = np.asarray(_program(width, grid, False)(p, a))
     ours = np.asarray(_program(width, grid, True)(p, a))
+    # the JAX formulation other backends run (real and imaginary parts scattered apart)
+    coefficients, _ = spreading_kernel(width, 2.0)
+    pairs = np.asarray(jax.jit(functools.partial(
+        _nufft._spread_taps, width=width, grid=grid, coefficients=coefficients,
+        reach=grid / 2, pairs=True))(p, a))
     eps = np.finfo(np.asarray(amplitude).real.dtype).eps
     bound = 8 * width * eps * np.abs(amplitude).sum()
-    assert ours.dtype == amplitude.dtype
+    assert ours.dtype == pairs.dtype == amplitude.dtype
     assert np.max(np.abs(ours - reference)) <= bound
+    assert np.max(np.abs(pairs - reference)) <= bound
 
 
 @needs_native

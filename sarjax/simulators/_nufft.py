@@ -69,14 +69,30 @@ def _spread_xla(points, amplitude, width, grid, coefficients, reach):
 
     The taps are added one at a time in a loop: its operands (positions, amplitudes) are
     then computed once, not once per tap as a fused ``amplitude[:, None] * taps`` would;
-    an extended grid with the wrap folded afterwards avoids a modulo per tap.
+    an extended grid with the wrap folded afterwards avoids a modulo per tap. On a CPU
+    the scatter adds complex values; elsewhere (pairs of real values) it adds each real
+    and imaginary part on its own: XLA's GPU scatter-add of complex64 values took 1.9 ms
+    for 404 352 × 5 updates on an H200, of (n, 2) float32 pairs 0.22 ms, and complex128
+    0.35 against 0.31 ms (on the CPU pairs took twice as long: 5.9 against 2.6 ms).
     """
+    return jax.lax.platform_dependent(
+        points, amplitude,
+        cpu=functools.partial(_spread_taps, width=width, grid=grid,
+                              coefficients=coefficients, reach=reach, pairs=False),
+        default=functools.partial(_spread_taps, width=width, grid=grid,
+                                  coefficients=coefficients, reach=reach, pairs=True))
+
+
+def _spread_taps(points, amplitude, *, width, grid, coefficients, reach, pairs):
+    """:func:`_spread_xla`, the scatter over complex values or (``pairs``) real pairs."""
     low = int(math.ceil(reach)) + width
     start = jnp.ceil(points - width / 2)
     real = jnp.finfo(amplitude.dtype).dtype  # the tap weights in the amplitude's precision
     f = (start - (points - width / 2)).astype(real)  # [0, 1)
     first = jnp.clip(start, -low, grid + low).astype(jnp.int32) + low
     table = jnp.asarray(coefficients, real)
+    # the values added: complex, or (n, 2) real and imaginary parts
+    values = jnp.stack([jnp.real(amplitude), jnp.imag(amplitude)], -1) if pairs else amplitude
 
     length = grid + 2 * low + 1  # cells a tap's window spans: first ∈ [0, grid + 2 low]
 
@@ -88,12 +104,14 @@ def _spread_xla(points, amplitude, width, grid, coefficients, reach):
         # tap i added at ``first`` into the grid's window from cell i (a slice of the
         # small grid): the scatterers' indices are not formed again per tap
         window = jax.lax.dynamic_slice_in_dim(extended, i, length)
-        window = window.at[first].add(amplitude * tap.astype(amplitude.dtype),
-                                      mode="promise_in_bounds")
+        update = values * (tap[:, None] if pairs else tap.astype(amplitude.dtype))
+        window = window.at[first].add(update, mode="promise_in_bounds")
         return jax.lax.dynamic_update_slice_in_dim(extended, window, i, 0)
 
-    extended = jnp.zeros(grid + 2 * low + width, amplitude.dtype)
+    extended = jnp.zeros((grid + 2 * low + width, *values.shape[1:]), values.dtype)
     extended = jax.lax.fori_loop(0, width, add_tap, extended)
+    if pairs:
+        extended = jax.lax.complex(extended[:, 0], extended[:, 1])
     # extended cell j is grid cell j − low: folded onto the periodic grid (any G, w)
     cell = np.mod(np.arange(extended.shape[0]) - low, grid)
     return jnp.zeros(grid, amplitude.dtype).at[cell].add(extended)
