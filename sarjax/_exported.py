@@ -352,10 +352,10 @@ def _cpu() -> str:
     return hashlib.sha256("\n".join(wanted).encode()).hexdigest()
 
 
-def _source_digest() -> str:
-    """SHA-256 of every ``.py`` file and native kernel source (``.cc``) of the package,
-    by relative path."""
-    root = Path(__file__).resolve().parent
+def _source_digest(root=None) -> str:
+    """SHA-256 of every ``.py`` file and native kernel source (``.cc``) of the package
+    (or of the folder ``root``), by relative path."""
+    root = Path(root) if root is not None else Path(__file__).resolve().parent
     digest = hashlib.sha256()
     for path in sorted([*root.rglob("*.py"), *root.rglob("*.cc")]):
         digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())

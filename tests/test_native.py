@@ -202,3 +202,18 @@ def test_programs_for_other_backends_take_the_jax_formulation():
     for platforms, calls in ((["cpu"], True), (["cuda"], False), (["rocm"], False)):
         exported = jax.export.export(program, platforms=platforms, disabled_checks=allow)(*args)
         assert ("sarjax_spread" in exported.mlir_module()) == calls, platforms
+
+
+def test_a_changed_kernel_source_keys_new_programs(tmp_path):
+    """The serialised programs' key digests the package's ``.cc`` files too: an edited
+    kernel never runs under a program kept from before (``sarjax._exported``)."""
+    from sarjax import _exported
+
+    (tmp_path / "module.py").write_text("x = 1\n")
+    (tmp_path / "native").mkdir()
+    kernel = tmp_path / "native" / "kernel.cc"
+    kernel.write_text("int f() { return 1; }\n")
+    before = _exported._source_digest(tmp_path)
+    kernel.write_text("int f() { return 2; }\n")
+    assert _exported._source_digest(tmp_path) != before
+    assert native.SOURCE.suffix == ".cc" and native.SOURCE.exists()
