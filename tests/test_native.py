@@ -217,3 +217,22 @@ def test_a_changed_kernel_source_keys_new_programs(tmp_path):
     kernel.write_text("int f() { return 2; }\n")
     assert _exported._source_digest(tmp_path) != before
     assert native.SOURCE.suffix == ".cc" and native.SOURCE.exists()
+
+
+def test_without_a_working_compiler_the_simulator_runs_the_jax_path(monkeypatch, tmp_path):
+    """A process whose build fails (here a compiler that always fails) reports why in
+    ``status``, plans the JAX path and simulates as before."""
+    monkeypatch.setattr(native, "_library", None)
+    monkeypatch.setattr(native, "_reason", "not tried")
+    monkeypatch.setenv("CXX", "false")
+    monkeypatch.setenv(native.ENV_DIR, str(tmp_path))
+    assert not native.available()
+    assert native.status().startswith("unavailable: false failed")
+    radar = sj.presets.airborne_xband(num_pulses=32, num_range=96)
+    scene = sj.PointTargets(azimuth=[0.0], range=[5140.0])
+    acquisition = Acquisition(num_pulses=32, num_range=96, near_range=5100.0,
+                              azimuth_center=0.0)
+    assert not sj.simulators.TimeDomainNUFFT().prepare(radar, scene, acquisition).native
+    raw = sj.simulate(radar, scene, method="time_domain_nufft", num_pulses=32, num_range=96,
+                      near_range=5100.0)
+    assert np.isfinite(np.asarray(raw.data)).all() and np.abs(np.asarray(raw.data)).max() > 0
