@@ -16,8 +16,10 @@ starts, so XLA's thread pool has one thread) and one with both. In each child:
 * on two cores, the time during which a single operation runs and nothing else does,
   for the FFTs: what their one thread costs the call's wall time.
 
-Beside them, in the two-core child: one lone jitted FFT of the yardstick (complex128,
-2560 × 675) and of one 416 × 2000 complex64 line set along its rows, one and two cores;
+Beside them, one and two cores: one lone jitted FFT of the yardstick (complex128,
+2560 × 675) and of one 416 × 2000 complex64 line set along its rows, and the same
+transform at the end of a program of six large elementwise fusions (which XLA splits
+across the cores; the transform's traced time);
 and the memory bandwidth of one streaming pass (``numpy.multiply`` over 128 MiB, which
 releases the interpreter lock) from one thread and from two threads at once.
 
@@ -48,6 +50,8 @@ sys.path.insert(0, str(HERE))
 
 METHODS = ("fourier_2d", "small_deviation", "moderate_deviation")
 YARDSTICK = "yardstick FFT2, complex128 2560 × 675"  # issue 19's fixed FFT2
+AFTER_FUSIONS = ("the same line set transform at the end of a program of six partitioned "
+                 "fusions (its traced time)")
 
 
 # ---- child: one method on a given number of cores ---------------------------------------
@@ -104,7 +108,40 @@ def _lone_transforms(repeats=30):
         f = jax.jit(fn)
         jax.block_until_ready(f(a))
         out[label] = steady(lambda: f(a), repeats).min
+    out[AFTER_FUSIONS] = _transform_after_fusions()
     return out
+
+
+def _transform_after_fusions(traces=3):
+    """The traced time [s] of the line set's transform when it ends a program after six
+    elementwise fusions large enough for XLA to split across the cores (least of
+    ``traces`` calls)."""
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    import profile_fourier as pf
+
+    rng = np.random.default_rng(2)
+    a = jnp.asarray(rng.normal(size=(416, 2000)) + 1j * rng.normal(size=(416, 2000)),
+                    jnp.complex64)
+    w = jnp.asarray(rng.random(2000), jnp.float32)
+
+    def program(y):
+        for _ in range(6):
+            y = y * jnp.exp(1j * jnp.sin(y.real * w))
+        return jnp.fft.fft(y, axis=1)
+
+    f = jax.jit(program)
+    jax.block_until_ready(f(a))
+    best = float("inf")
+    for _ in range(traces):
+        with tempfile.TemporaryDirectory() as folder:
+            with jax.profiler.trace(folder, create_perfetto_trace=True):
+                jax.block_until_ready(f(a))
+            events = pf._events(folder)
+        best = min(best, sum(e["dur"] for e in events if e["name"].startswith("fft")) * 1e-6)
+    return best
 
 
 def _bandwidth(threads, passes=10):
