@@ -14,7 +14,12 @@ starts, so XLA's thread pool has one thread) and one with both. In each child:
   time halves on two cores is split across them (XLA partitions large fusions along their
   outer dimension); one whose time does not ran on one thread;
 * on two cores, the time during which a single operation runs and nothing else does,
-  for the FFTs: what their one thread costs the call's wall time.
+  for the FFTs: what their one thread costs the call's wall time;
+* the call's two parts apart (min of 10 each): its compiled program alone
+  (``sarjax._simulate._run``, the simulation without the checks) and its validity checks
+  alone (``sarjax._validate.model_findings``). A call runs the checks in a worker thread
+  beside the program, so on two cores it takes about the program's time plus what the
+  checks take from it.
 
 Beside them, one and two cores: one lone jitted FFT of the yardstick (complex128,
 2560 × 675) and of one 416 × 2000 complex64 line set along its rows, and the same
@@ -25,7 +30,7 @@ releases the interpreter lock) from one thread and from two threads at once.
 
 Usage::
 
-    python benchmarks/profile_cores.py [--write] [--methods ...]   # ~3 min on 2 cores
+    python benchmarks/profile_cores.py [--write] [--methods ...]   # ~1.5 min on 2 cores
 
 ``--write`` replaces the ``<!-- profile_cores:start -->`` … ``<!-- profile_cores:end -->``
 section of ``benchmarks/RESULTS.md``.
@@ -170,6 +175,37 @@ def _bandwidth(threads, passes=10):
     return threads * passes * 2 * arrays[0][0].nbytes / best / 1e9
 
 
+def _parts(radar, scene, motion, kwargs, repeats=10):
+    """Steady wall time [s] of the call's compiled program alone and of its checks alone."""
+    import jax
+    import jax.numpy as jnp
+
+    from _common import steady
+    from sarjax import _exported, _simulate, _validate
+
+    kwargs = dict(kwargs)
+    plan = _simulate._prepare(
+        radar, scene, motion, method=kwargs.pop("method"),
+        num_pulses=kwargs.pop("num_pulses", None), num_range=kwargs.pop("num_range", None),
+        near_range=kwargs.pop("near_range", None),
+        azimuth_center=kwargs.pop("azimuth_center", 0.0), dtype=jnp.complex64,
+        devices=None, memory_limit=None, options=kwargs)
+    simulator, sim_plan, motion, acquisition, dtype, name, call, _, _, _ = plan
+    run = _exported.persistent(_simulate._run)
+
+    def program():
+        return run(simulator, sim_plan, radar, scene, motion, acquisition, dtype, name,
+                   call).data
+
+    def checks():
+        return _validate.model_findings(simulator, radar, scene, motion, acquisition, False,
+                                        dtype)
+
+    jax.block_until_ready(program())
+    checks()
+    return dict(program=steady(program, repeats).min, checks=steady(checks, repeats).min)
+
+
 def child(method, cores, out):
     if cores == 1:
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
@@ -203,12 +239,10 @@ def child(method, cores, out):
     ops = {k: min(s.get(k, 0.0) for s in sums) for k in set().union(*sums)}
     alone = _alone(runs[-1])
     result = dict(method=method, cores=len(os.sched_getaffinity(0)), wall=wall, ops=ops,
-                  alone=dict(alone))
+                  alone=dict(alone), parts=_parts(radar, scene, motion, kwargs))
+    result["lone"] = _lone_transforms()
     if cores != 1:
-        result["lone"] = _lone_transforms()
         result["bandwidth"] = {n: _bandwidth(n) for n in (1, 2)}
-    elif method == METHODS[0]:
-        result["lone"] = _lone_transforms()
     Path(out).write_text(json.dumps(result))
 
 
@@ -250,6 +284,22 @@ def rows(results, yardstick):
     return "\n".join(lines)
 
 
+def parts_rows(results, yardstick):
+    lines = ["| method | program alone, one core → two [ms] | FFT2-eq., one core → two | "
+             "checks alone, one core → two [ms] | call on two cores [ms] (FFT2-eq.) | "
+             "call less program, two cores [ms] |", "|---|---|---|---|---|---|"]
+    for method in results:
+        one, two = results[method][1], results[method][2]
+        p1, p2 = one["parts"]["program"], two["parts"]["program"]
+        c1, c2 = one["parts"]["checks"], two["parts"]["checks"]
+        lines.append(
+            f"| {method} | {p1 * 1e3:.1f} → {p2 * 1e3:.1f} | {p1 / yardstick[1]:.1f} → "
+            f"{p2 / yardstick[2]:.1f} | {c1 * 1e3:.1f} → {c2 * 1e3:.1f} | "
+            f"{two['wall'] * 1e3:.1f} ({two['wall'] / yardstick[2]:.1f}) | "
+            f"{(two['wall'] - p2) * 1e3:.1f} |")
+    return "\n".join(lines)
+
+
 def largest(results, method, count=8):
     one, two = results[method][1], results[method][2]
     names = sorted(one["ops"], key=lambda k: -one["ops"][k])[:count]
@@ -281,7 +331,9 @@ def main(argv=None):
                      f"{lone1[k] / lone2[k]:.2f} |" for k in lone1)
     bw = first[2]["bandwidth"]
     bw1, bw2 = bw["1"], bw["2"]
-    table = rows(results, {1: lone1[YARDSTICK], 2: lone2[YARDSTICK]})
+    yardstick = {1: lone1[YARDSTICK], 2: lone2[YARDSTICK]}
+    table = rows(results, yardstick)
+    parts = parts_rows(results, yardstick)
     m = machine()
     details = "\n".join(f"- {method}: {largest(results, method)}" for method in results)
     text = f"""<!-- profile_cores:start -->
@@ -294,6 +346,11 @@ Seed 000 scene, complex64, freed memory kept; each method in a process pinned to
 and in one with both. Operation times: summed over one traced call, the least of three.
 
 {table}
+
+The call's two parts apart (min of 10 each): the compiled program alone and the
+validity checks alone (which a call runs in a worker thread beside the program):
+
+{parts}
 
 The largest operations, one core → two [ms]:
 {details}
