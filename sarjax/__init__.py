@@ -15,6 +15,7 @@ from . import constants as constants  # noqa: E402
 from . import geometry as geometry  # noqa: E402
 from . import metrics as metrics  # noqa: E402
 from . import presets as presets  # noqa: E402
+from ._allocator import FreedMemoryWarning as FreedMemoryWarning  # noqa: E402
 from ._allocator import retain_freed_memory as retain_freed_memory  # noqa: E402
 from ._compilation_cache import enable_compilation_cache as enable_compilation_cache  # noqa: E402
 from ._data import Acquisition as Acquisition  # noqa: E402

@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 
+import jax
 import numpy as np
 import pytest
 
@@ -206,6 +207,7 @@ def test_the_command_keeps_freed_memory(monkeypatch, capsys):
     monkeypatch.undo()
 
     taken = []
+    monkeypatch.setattr(_allocator, "_backend_started", lambda: False)
     monkeypatch.setattr(_allocator, "_libc", lambda: lambda p, v: taken.append((p, v)) or 1)
     assert sj.retain_freed_memory() is True
     assert taken == [(_allocator.M_MMAP_MAX, 0), (_allocator.M_TRIM_THRESHOLD, 2**31 - 1),
@@ -214,6 +216,32 @@ def test_the_command_keeps_freed_memory(monkeypatch, capsys):
     assert sj.retain_freed_memory() is False
     monkeypatch.setattr(_allocator, "_libc", lambda: None)
     assert sj.retain_freed_memory() is False
+
+
+def test_freed_memory_is_kept_only_when_set_before_jax_starts(monkeypatch):
+    """``retain_freed_memory`` after JAX's backend started changes nothing (XLA's threads
+    keep the allocator arenas they took when it started): it warns, naming what to do
+    instead, and returns False without calling ``mallopt``. In a fresh process, right
+    after ``import sarjax``, it takes the settings (glibc) and ``sarjax`` has not started
+    the backend by then."""
+    from sarjax import _allocator
+
+    taken = []
+    monkeypatch.setattr(_allocator, "_libc", lambda: lambda p, v: taken.append((p, v)) or 1)
+    jax.numpy.ones(3).block_until_ready()  # the backend has started
+    assert _allocator._backend_started()
+    with pytest.warns(sj.FreedMemoryWarning, match="before the first JAX computation") as w:
+        assert sj.retain_freed_memory() is False
+    assert taken == []
+    assert "GLIBC_TUNABLES=glibc.malloc.arena_max=1" in str(w[0].message)
+    assert w[0].filename == __file__  # attributed to the caller's line
+    code = ("import warnings; warnings.simplefilter('error'); import sarjax as sj, "
+            "sarjax._allocator as a, ctypes.util, platform; "
+            "assert not a._backend_started(); ok = sj.retain_freed_memory(); "
+            "glibc = platform.libc_ver()[0] == 'glibc'; assert ok is glibc, (ok, glibc)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
 
 
 def test_config_example_check_and_did_you_mean(tmp_path, capsys):

@@ -42,15 +42,16 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv=None) -> int:
     """Entry point of the ``sarjax`` command; returns the exit status."""
-    if os.environ.get("SARJAX_COORDINATOR"):  # one of the processes of a launched run
-        from .. import distributed
-
-        distributed.initialize()
     from .. import _allocator, _exported
     from .._compilation_cache import enable_compilation_cache
 
     if argv is None:  # run as the command (not called from Python with its arguments)
-        _allocator.retain_freed_memory()  # a call reuses the memory the last one freed
+        # a call reuses the memory the last one freed (set before JAX's backend starts)
+        _allocator.retain_freed_memory()
+    if os.environ.get("SARJAX_COORDINATOR"):  # one of the processes of a launched run
+        from .. import distributed
+
+        distributed.initialize()
 
     kept = _exported.folder()  # restored on return (main called from Python)
     try:
