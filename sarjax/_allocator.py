@@ -22,9 +22,10 @@ large blocks are still mapped and unmapped on every call (Algorithm B, seed 000,
 complex64, two cores: set at the start 2.0 k faults and 122–127 ms a call; set after
 one computation 29 k faults and 146 ms, as without). Called later,
 :func:`retain_freed_memory` changes nothing and warns (:class:`FreedMemoryWarning`).
-The same settings in the environment before the process starts reach every thread:
-``GLIBC_TUNABLES=glibc.malloc.arena_max=1:glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=2147483647``
-(2.0 k faults, 122 ms).
+The same settings in the environment before the process starts reach every thread
+(2.0 k faults, 122 ms): ``GLIBC_TUNABLES`` set to
+``glibc.malloc.arena_max=1:glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=2147483647``
+(:data:`TUNABLES`).
 
 An alternative that does not keep the peak, set in the environment before the process
 starts (glibc reads it then): ``GLIBC_TUNABLES=glibc.malloc.hugetlb=1`` makes glibc ask
