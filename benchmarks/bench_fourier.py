@@ -44,7 +44,7 @@ if absent); ``--quick`` runs a reduced size and writes nothing unless ``--write`
 
 Usage::
 
-    python benchmarks/bench_fourier.py            # full run (~3 min on 2 cores)
+    python benchmarks/bench_fourier.py            # full run (~2 min on 2 cores)
     python benchmarks/bench_fourier.py --quick    # smoke test
 """
 
@@ -462,17 +462,16 @@ below).
 """
 
 
-def retained_rows(argv, dtypes):
+def retained_rows(argv):
     """The rows "freed memory kept", timed in a child process of this script."""
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "rows.json"
         subprocess.run([sys.executable, __file__, *argv, "--retained-child", str(out)],
                        check=True)
-        rows = json.loads(out.read_text())
-    return [r for r in rows if r["dtype"] in dtypes]
+        return json.loads(out.read_text())
 
 
-def retained_child(cfg, repeats, out):
+def retained_child(cfg, dtypes, repeats, out):
     """Child of :func:`retained_rows`: :func:`sarjax.retain_freed_memory` before any
     computation, then each target method's call in each dtype (its own compile and
     yardstick left to the parent)."""
@@ -483,8 +482,9 @@ def retained_child(cfg, repeats, out):
     for label, method, options in CASES:
         if label not in TARGETS_FFT:
             continue
-        for dname, dtype in DTYPES.items():
-            r = time_case(radar, scene, motion, grid, method, options, dtype, repeats)
+        for dname in dtypes:
+            r = time_case(radar, scene, motion, grid, method, options, DTYPES[dname],
+                          repeats)
             # the compile of this process is not the user's first call: left out
             r.update(label=f"{label}, freed memory kept", dtype=dname, target=label,
                      compile=None)
@@ -512,10 +512,10 @@ def main(argv=None):
     args = p.parse_args(argv)
 
     cfg = QUICK if args.quick else FULL
-    if args.retained_child:
-        return retained_child(cfg, args.repeats, args.retained_child)
-    write = not args.no_write and (not args.quick or args.write)
     dtypes = ["complex128"] if args.no_complex64 else list(DTYPES)
+    if args.retained_child:
+        return retained_child(cfg, dtypes, args.repeats, args.retained_child)
+    write = not args.no_write and (not args.quick or args.write)
     load_start = load_average()
     info = machine_info()
     print(f"{info['cpu']}, {info['cores']} cores, JAX {info['jax']} ({info['backend']}), "
@@ -558,7 +558,7 @@ def main(argv=None):
         # the same calls with the memory a call frees kept for the next: in a process of
         # their own, which sets it before JAX starts (set later, it reaches no thread
         # XLA runs a call on: sarjax/_allocator.py)
-        for r in retained_rows(argv, dtypes):
+        for r in retained_rows(argv):
             rows.append(r)
             print(f"  {r['label']:38s} {r['dtype']:10s} steady {r['steady']:7.3f} s "
                   f"(cpu {r['cpu']:.3f}, max {r['worst']:.3f})", flush=True)

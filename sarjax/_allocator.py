@@ -66,9 +66,11 @@ class FreedMemoryWarning(UserWarning):
     nothing (the message says what to do instead)."""
 
 
-# the environment that gives a process the same settings from its start
-TUNABLES = ("GLIBC_TUNABLES=glibc.malloc.arena_max=1:glibc.malloc.mmap_max=0:"
-            "glibc.malloc.trim_threshold=2147483647")
+# the environment that gives a process the same settings from its start (glibc's names)
+_TUNABLE_NAMES = {M_ARENA_MAX: "arena_max", M_MMAP_MAX: "mmap_max",
+                  M_TRIM_THRESHOLD: "trim_threshold"}
+TUNABLES = "GLIBC_TUNABLES=" + ":".join(
+    f"glibc.malloc.{name}={dict(SETTINGS)[param]}" for param, name in _TUNABLE_NAMES.items())
 
 
 def _backend_started() -> bool:

@@ -236,7 +236,7 @@ def test_freed_memory_is_kept_only_when_set_before_jax_starts(monkeypatch):
     assert "GLIBC_TUNABLES=glibc.malloc.arena_max=1" in str(w[0].message)
     assert w[0].filename == __file__  # attributed to the caller's line
     code = ("import warnings; warnings.simplefilter('error'); import sarjax as sj, "
-            "sarjax._allocator as a, ctypes.util, platform; "
+            "sarjax._allocator as a, platform; "
             "assert not a._backend_started(); ok = sj.retain_freed_memory(); "
             "glibc = platform.libc_ver()[0] == 'glibc'; assert ok is glibc, (ok, glibc)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
