@@ -73,10 +73,12 @@ from ._budgets import (
     LobeGeometry,
     azimuth_budgets,
     beam_coordinate,
+    coupling_rest,
     lobe_pairs,
     lobe_peak,
     over_pulse_blocks,
     pointing_budget,
+    range_difference,
     recorded_mean_square,
     recorded_phase_budget,
 )
@@ -219,7 +221,7 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
     terms signed and added (``constants``: k₀, cos φ_d). Blocks of pulses
     (:func:`~._budgets.over_pulse_blocks`)."""
     k0, c_d = constants[0], constants[1]
-    _, _, rs, hs, dy, dz, _, _, height = pairs
+    _, _, rs, ground, dy, dz, _, _, drop = pairs
     n = dy.shape[0]
     # ψ at each scatterer's beam-centre pulse, linear between the two pulses around it
     position = jnp.clip(beam_pulse, 0.0, n - 1.0)
@@ -227,7 +229,8 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
     t = position - i0
 
     def psi_at(i):  # (scatterer,) ψ = δr_xr − δr at pulse i of each scatterer
-        return geometry.line_of_sight_deviation(dy[i], dz[i], rs, hs, height) - delta_r[i, 0]
+        return (geometry.line_of_sight_deviation_across(dy[i], dz[i], rs, ground, drop)
+                - delta_r[i, 0])
 
     psi_beam = psi_at(i0) * (1 - t) + psi_at(jnp.minimum(i0 + 1, n - 1)) * t
     rs = rs[None, :]
@@ -235,10 +238,10 @@ def _small_deviation_maxima(pairs, pattern, power, delta_r, beam_pulse, constant
 
     def block(along, lobe, los, delta_r_b, live):
         nominal = jnp.sqrt(rs**2 + along**2)
-        exact = rs + geometry.range_offset(along, rs, los)
         secant = nominal * inverse_range  # 1/c
         psi = los - delta_r_b
-        coupling, variation = exact - nominal - c_d * los, psi - psi_beam[None, :]
+        coupling = range_difference(along, rs, los, nominal) - c_d * los
+        variation = psi - psi_beam[None, :]
         peaks = jnp.stack([
             lobe_peak(lobe, coupling),
             lobe_peak(lobe, jnp.abs(psi) * secant
@@ -273,10 +276,12 @@ class SmallDeviationTrack(AbstractTrack):
         c_d = math.cos(lobe.squint)
         # ψ at the beam-centre pulse x_c = x − r tan φ_d of each scatterer
         x_beam = lobe.xs - lobe.rs * math.tan(lobe.squint)
+        pairs, power, delta_r = lobe.inputs()
         coupling, envelope, variation, error, recorded = (
             float(v) for v in _small_deviation_maxima(
-                lobe.pairs, lobe.pattern, lobe.power, lobe.delta_r,
-                np.asarray((x_beam - lobe.x_p[0]) / lobe.dx), np.asarray([lobe.k0, c_d])))
+                pairs, lobe.pattern, power, delta_r,
+                np.asarray((x_beam - lobe.x_p[0]) / lobe.dx, pairs[0].dtype),
+                np.asarray([lobe.k0, c_d], pairs[0].dtype)))
         return [
             Budget("epsilon_11", lobe.k0 * coupling, PHASE_THRESHOLD,
                    "(4π/λ) max|R − R_n − cos φ_d δr_xr| (seed eq. 11)", error=PHASE_MAXIMUM),
@@ -308,7 +313,7 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants, couple
     first, they were a dozen (pulse, scatterer) arrays written and transposed into
     blocks."""
     k0, c_d, dx = constants
-    x_p, xs, rs, hs, dy, dz, ratio, tan_d, height = pairs
+    x_p, xs, rs, ground, dy, dz, ratio, tan_d, drop = pairs
     n_scatterers = xs.shape[0]
     width = min(_SCATTERER_BLOCK, n_scatterers)
     blocks = -(-n_scatterers // width)
@@ -324,13 +329,14 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants, couple
     reference_slope = jnp.gradient(delta_r, dx, axis=0)
 
     def block(args):
-        xs, rs, hs, power, real = args
+        xs, rs, ground, drop, power, real = args
         # the block's pairs formed here, from its scatterers (1-D) and every pulse
-        along, lobe, los = lobe_pairs((x_p, xs, rs, hs, dy, dz, ratio, tan_d, height))
+        along, lobe, los = lobe_pairs((x_p, xs, rs, ground, dy, dz, ratio, tan_d, drop))
         lobe = lobe & real[None, :]
         rs, power = rs[None, :], jnp.where(real, power, 0.0)[None, :]
         nominal = jnp.sqrt(rs**2 + along**2)
-        exact = rs + geometry.range_offset(along, rs, los)
+        exact = jnp.sqrt((rs + los) ** 2 + along**2)
+        deviated = range_difference(along, rs, los, nominal, exact)  # R − R_n
         # c = r/R_n and its powers' reciprocals from one division per pair and one per
         # scatterer (1/r), not one per term
         cos_look = rs / nominal
@@ -357,15 +363,15 @@ def _moderate_deviation_maxima(pairs, pattern, power, delta_r, constants, couple
         uncorrected = (jnp.abs(delta_r) * jnp.abs(secant - 1 / c_d)
                        + jnp.abs(along) * alpha * jnp.abs(los_slope) * secant2 / k0
                        + higher)
-        rest = exact - nominal - los * cos_look
+        rest = coupling_rest(along, rs, los, nominal, exact)  # R − R_n − δr_xr c
         recorded = recorded_mean_square(
             pattern, beam_coordinate(along, rs, pairs[6], pairs[7]), power, k0 * rest)
         terms = ([rest, los - jnp.mean(los, axis=0, keepdims=True)] if coupled
-                 else [exact - nominal - c_d * los])
+                 else [deviated - c_d * los])
         terms += [corrected, uncorrected] if envelope_corrected else [corrected + uncorrected]
         return jnp.stack([lobe_peak(lobe, t) for t in terms]), jnp.stack(recorded)
 
-    peaks, sums = jax.lax.map(block, (split(xs), split(rs), split(hs), split(power), real))
+    peaks, sums = jax.lax.map(block, (*(split(v) for v in (xs, rs, ground, drop, power)), real))
     return tuple(jnp.max(peaks, axis=0)), tuple(jnp.sum(sums, axis=0))
 
 
@@ -535,8 +541,9 @@ class ModerateDeviationTrack(AbstractTrack):
         k0, dx = lobe.k0, lobe.dx
         order = self.coupling_order(sim, lobe.radar, lobe.line_of_sight_span)
         corrected = bool(sim.envelope_correction)
+        pairs, power, delta_r = lobe.inputs()
         maxima, sums = _moderate_deviation_maxima(
-            lobe.pairs, lobe.pattern, lobe.power, lobe.delta_r, np.asarray([k0, c_d, dx]),
+            pairs, lobe.pattern, power, delta_r, np.asarray([k0, c_d, dx], pairs[0].dtype),
             bool(order), corrected)
         maxima = [float(v) for v in maxima]
         error, recorded = (float(v) for v in sums)
