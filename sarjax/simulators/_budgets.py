@@ -1642,10 +1642,13 @@ class LobeGeometry:
 
     def deviation_slope_max(self) -> float:
         """max |∂ψ/∂x'| over every (pulse, sample) pair [m/m], ``ψ = δr_xr − δr`` (the
-        slope as ``numpy.gradient`` along the pulses; 0 for a single pulse)."""
+        slope as ``numpy.gradient`` along the pulses; 0 for a single pulse), in the
+        :attr:`precision` (float32: δr_xr and δr keep ~10⁻⁷ of themselves, their slope
+        ~10⁻⁷ of a centimetre over a pulse)."""
         if self.x_p.size < 2:
             return 0.0
-        return float(_deviation_slope_max(self.pairs, self.delta_r, np.asarray(self.dx)))
+        pairs, _, delta_r = self.inputs()
+        return float(_deviation_slope_max(pairs, delta_r, np.asarray(self.dx, delta_r.dtype)))
 
     def line_of_sight_span(self) -> float:
         """:func:`line_of_sight_span` of the pulses and the scene's samples [m]."""
