@@ -448,8 +448,7 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases, outside=None,
     ``"single"`` (float32; each echo's position from the window's first sample formed
     as a difference, so that it keeps ~10⁻⁴ of a sample) or ``"double"``.
     """
-    if precision not in ("single", "double"):
-        raise ValueError(f"precision={precision!r} is not 'single' or 'double'")
+    real = _pair_dtype(precision)
     positions = scene_positions(scene)
     values = [_concrete(v) for v in (radar.chirp_rate, radar.pulse_half_length,
                                      radar.range_spacing, radar.azimuth_spacing,
@@ -484,7 +483,6 @@ def chirp_edge_budget(radar, scene, motion, acquisition, aliases, outside=None,
                 for v in scene_velocities(scene, xs.size))
     # the azimuths from the window's centre, the ranges also from its first sample and
     # the drop H − h, formed here in float64 (the program's dtype may be float32)
-    real = np.float32 if precision == "single" else np.float64
     inputs = (along((pulses - (n - 1) / 2) * dx), along(dy[pulses]), along(dz[pulses]),
               pulse_weight, across(xs - centre), across(rs - near), across(rs),
               across(float(radar.height) - hs), sample_weight, v_r, v_a, lead, trail,
@@ -1022,7 +1020,7 @@ def _chirp_edge_sums(pattern, x_p, dy, dz, pulse_weight, xs, offset, rs, drop, w
                                                       ground, down)
         # the echo's centre in samples of the window
         position = (offset[None, :] + shift + geometry.range_offset(along, moved, los)) / dr
-        u = ratio * (along / moved + tan_d) / (1 - along * tan_d / moved)
+        u = beam_coordinate(along, moved, ratio, tan_d)
         w = pulse_weight[:, None] * weight[None, :] * jnp.abs(pattern(u)) ** 2
         sub = jnp.mod(jnp.round((position - jnp.floor(position)) * steps).astype(jnp.int32),
                       steps)
@@ -1239,6 +1237,14 @@ def recorded_mean_square(pattern, u, power, phase):
             jnp.sum(weight.astype(wide)))
 
 
+def _pair_dtype(precision):
+    """The NumPy dtype of the pair programs' inputs for ``precision`` ("single" or
+    "double")."""
+    if precision not in ("single", "double"):
+        raise ValueError(f"precision={precision!r} is not 'single' or 'double'")
+    return np.float32 if precision == "single" else np.float64
+
+
 def range_difference(along, rs, los, nominal, exact=None):
     """``R − R_n`` [m] of (pulse, scatterer) pairs, ``R = √((r + δr_xr)² + a²)`` the
     deviated and ``nominal`` ``R_n = √(r² + a²)`` the straight track's range (``along``
@@ -1451,8 +1457,7 @@ class LobeGeometry:
 
     def __init__(self, radar, scene, motion, num_pulses, azimuth_center, range_window=None,
                  precision="single"):
-        if precision not in ("single", "double"):
-            raise ValueError(f"precision={precision!r} is not 'single' or 'double'")
+        _pair_dtype(precision)
         self.precision = precision  # of the pair programs (:meth:`inputs`)
         n = num_pulses
         self.range_window = range_window  # (first, last) sample's slant range [m], or None
